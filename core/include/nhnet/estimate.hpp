@@ -1,0 +1,72 @@
+// The normal estimation pipeline: the one call every front end (CLI, PCL class, plugins,
+// Python) makes. Geometry stage of the paper (Sec. 4): PCA for smooth points, MFPS for points
+// near sharp features, with neighbourhood sizes chosen from the cloud's own noise level.
+#pragma once
+
+#include "nhnet/progress.hpp"
+#include "nhnet/types.hpp"
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace nhnet {
+
+enum class Method {
+  Pca,   ///< plain PCA over the k nearest neighbours
+  Mfps,  ///< PCA for smooth points + multi-scale fitting patch selection near features
+};
+
+/// Parses "pca" / "mfps"; throws InvalidOptions otherwise.
+Method method_from_string(const std::string& name);
+const char* to_string(Method method);
+
+struct EstimateOptions {
+  /// Which estimator to run.
+  Method method = Method::Mfps;
+  /// PCA neighbourhood size (self included) for --method pca and for MFPS smooth points;
+  /// 0 = chosen from the estimated noise level (see scales.hpp).
+  int k = 0;
+  /// MFPS patch sizes; empty = chosen from the estimated noise level. Paper: {50, 100, 150}.
+  std::vector<int> scales;
+  /// Seed of the random plane samples of MFPS (results are deterministic for a given seed and
+  /// independent of the thread count).
+  uint64_t seed = 1;
+  /// Threads (0 = all cores) and progress/cancel callback.
+  RunContext run;
+};
+
+struct EstimateResult {
+  /// N x 3 unit normals, unoriented (sign arbitrary); NaN rows for points that failed.
+  Normals normals;
+  /// N flags: 1 = normal computed, 0 = failed (non-finite input point or degenerate patch).
+  std::vector<uint8_t> valid;
+  /// Number of zeros in `valid`.
+  int64_t failed = 0;
+  /// Points classified as candidates near sharp features (MFPS only).
+  int64_t candidates = 0;
+  /// Estimated noise level: residual bandwidth / average point spacing (dimensionless).
+  double noise_ratio = 0;
+  /// Average spacing of the cloud (mean distance to the nearest other point), input units.
+  double spacing = 0;
+  /// PCA neighbourhood size that was used.
+  int k_used = 0;
+  /// MFPS patch sizes that were used (empty for PCA).
+  std::vector<int> scales_used;
+  /// Non-fatal notes for the user (clamped neighbourhoods, non-finite points, ...).
+  std::vector<std::string> warnings;
+};
+
+/// Estimates unoriented normals for `points` (N x 3). Non-finite points are skipped and reported
+/// as failed; they never influence their neighbours. Throws InvalidOptions for bad options,
+/// UnprocessableInput when fewer than 3 finite points remain, Cancelled when the progress
+/// callback returns false.
+EstimateResult estimate_normals(const Points& points, const EstimateOptions& options = {});
+
+/// Flips each valid row of `normals` (N x 3) whose dot product with the matching row of
+/// `reference` (N x 3) is negative, so signs agree with the reference ("--orient keep").
+/// Rows where the reference is zero or non-finite are left as they are. Returns how many were
+/// flipped.
+int64_t orient_like(Normals& normals, const Normals& reference);
+
+}  // namespace nhnet

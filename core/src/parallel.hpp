@@ -1,0 +1,79 @@
+// Internal: the one parallel-loop mechanism of the core (OpenMP) with progress and cancellation.
+#pragma once
+
+#include "nhnet/errors.hpp"
+#include "nhnet/progress.hpp"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cstdint>
+#include <string>
+
+namespace nhnet::detail {
+
+/// Maps stage-local progress onto the overall [0, 1] range and owns the cancel flag.
+class Progress {
+ public:
+  explicit Progress(const ProgressCallback& cb) : cb_(cb) {}
+
+  /// Starts a stage that covers [begin, end] of the overall range. Throws Cancelled when the
+  /// callback asks to stop.
+  void stage(const std::string& name, double begin, double end) {
+    name_ = name;
+    begin_ = begin;
+    end_ = end;
+    report(0.0);
+  }
+
+  /// Reports progress within the current stage (0..1). Returns false once cancelled. Must be
+  /// called from the calling thread only.
+  bool report(double fraction) {
+    if (cancelled_.load(std::memory_order_relaxed)) return false;
+    if (!cb_) return true;
+    const double f = begin_ + (end_ - begin_) * std::clamp(fraction, 0.0, 1.0);
+    if (!cb_(f, name_)) cancelled_.store(true);
+    return !cancelled_.load();
+  }
+
+  bool cancelled() const { return cancelled_.load(std::memory_order_relaxed); }
+  void throw_if_cancelled() const {
+    if (cancelled()) throw Cancelled();
+  }
+
+ private:
+  const ProgressCallback& cb_;
+  std::string name_;
+  double begin_ = 0, end_ = 1;
+  std::atomic<bool> cancelled_{false};
+};
+
+inline int thread_count(int requested) {
+  return requested > 0 ? requested : std::max(1, omp_get_max_threads());
+}
+
+/// Runs fn(i) for i in [0, n) on `threads` threads (dynamic schedule). Thread 0 (the calling
+/// thread) reports progress; a cancel request stops the remaining iterations and throws
+/// Cancelled after the loop. fn must not throw.
+template <class Fn>
+void parallel_for(int64_t n, int threads, Progress* progress, Fn&& fn) {
+  const int64_t chunk = 256;
+  std::atomic<int64_t> done{0};
+  const int nt = thread_count(threads);
+#pragma omp parallel for schedule(dynamic, 1) num_threads(nt)
+  for (int64_t c = 0; c < (n + chunk - 1) / chunk; ++c) {
+    if (progress && progress->cancelled()) continue;
+    const int64_t b = c * chunk, e = std::min(n, b + chunk);
+    for (int64_t i = b; i < e; ++i) fn(i);
+    const int64_t d = done.fetch_add(e - b) + (e - b);
+    if (progress && omp_get_thread_num() == 0) progress->report(double(d) / double(n));
+  }
+  if (progress) {
+    progress->throw_if_cancelled();
+    progress->report(1.0);
+    progress->throw_if_cancelled();
+  }
+}
+
+}  // namespace nhnet::detail

@@ -1,0 +1,71 @@
+// Analytic test fixtures with known normals: plane, sphere, cube (N x 3 points and normals).
+#pragma once
+
+#include "nhnet/types.hpp"
+
+#include <cmath>
+#include <random>
+
+namespace fixtures {
+
+struct Fixture {
+  nhnet::Points points;
+  nhnet::Normals normals;
+};
+
+/// Uniform samples of the unit square in the plane z = 0, normal +z.
+inline Fixture plane(int n, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Fixture f;
+  f.points.resize(n, 3);
+  f.normals.resize(n, 3);
+  for (int i = 0; i < n; ++i) {
+    f.points.row(i) << u(rng), u(rng), 0.0;
+    f.normals.row(i) << 0, 0, 1;
+  }
+  return f;
+}
+
+/// Uniform samples of the unit sphere, outward normals.
+inline Fixture sphere(int n, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> g(0.0, 1.0);
+  Fixture f;
+  f.points.resize(n, 3);
+  f.normals.resize(n, 3);
+  for (int i = 0; i < n; ++i) {
+    Eigen::Vector3d p(g(rng), g(rng), g(rng));
+    p.normalize();
+    f.points.row(i) = p.transpose();
+    f.normals.row(i) = p.transpose();
+  }
+  return f;
+}
+
+/// Uniform samples of the surface of the cube [-1, 1]^3 with face normals, plus Gaussian noise
+/// of standard deviation `noise` (absolute units) on every coordinate.
+inline Fixture cube(int n, double noise, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  std::uniform_int_distribution<int> face(0, 5);
+  std::normal_distribution<double> g(0.0, noise > 0 ? noise : 1.0);
+  Fixture f;
+  f.points.resize(n, 3);
+  f.normals.resize(n, 3);
+  for (int i = 0; i < n; ++i) {
+    const int fc = face(rng);
+    const int axis = fc / 2;
+    const double side = (fc % 2) ? 1.0 : -1.0;
+    Eigen::Vector3d p(u(rng), u(rng), u(rng));
+    p[axis] = side;
+    Eigen::Vector3d nrm = Eigen::Vector3d::Zero();
+    nrm[axis] = side;
+    if (noise > 0) p += Eigen::Vector3d(g(rng), g(rng), g(rng)) * 1.0;
+    f.points.row(i) = p.transpose();
+    f.normals.row(i) = nrm.transpose();
+  }
+  return f;
+}
+
+}  // namespace fixtures
