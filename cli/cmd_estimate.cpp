@@ -196,7 +196,7 @@ Command add_estimate_command(CLI::App& parent) {
       "  nhnet-cli estimate scan.xyz out.pcd --method pca --k 30 --threads 4\n"
       "  nhnet-cli estimate noisy.xyz out.xyzn --scales 50,100,150 --json\n\n"
       "Exit codes: 0 ok, 2 bad parameter, 3 bad input, 4 too few finite points,\n"
-      "6 cannot write output, 7 out of memory, 130 interrupted.");
+      "6 cannot write output, 7 out of memory, 130 interrupted.\n");
   return Command{sub, [args] { return run_estimate(*args); }};
 }
 

@@ -106,7 +106,7 @@ Command add_eval_command(CLI::App& parent) {
       "Example:\n"
       "  nhnet-cli estimate noisy.xyz est.xyzn && nhnet-cli eval est.xyzn noisy.gt.xyzn\n\n"
       "Exit codes: 0 ok, 2 point counts differ, 3 a file is unreadable or has no normals,\n"
-      "4 no valid normal to compare.");
+      "4 no valid normal to compare.\n");
   return Command{sub, [args] { return run_eval(*args); }};
 }
 

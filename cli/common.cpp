@@ -134,8 +134,10 @@ nhnet::ProgressCallback Reporter::callback() {
 void Reporter::draw(double fraction, const std::string& name, bool force) {
   if (!bar_) return;
   const auto now = std::chrono::steady_clock::now();
-  if (!force && name == last_stage_ && now - last_draw_ < kRedrawInterval) return;
-  if (force && now - last_draw_ < kRedrawInterval / 4 && name == last_stage_) return;
+  // At most ~10 redraws a second within a stage; a new stage shows sooner (but not in bursts).
+  const auto since = now - last_draw_;
+  if (name == last_stage_ ? (!force && since < kRedrawInterval) : since < kRedrawInterval / 4)
+    return;
   last_draw_ = now;
   last_stage_ = name;
   if (!std::isfinite(fraction)) fraction = 0;
