@@ -232,3 +232,20 @@ def test_sample_set(tmp_path):
     names = sorted(p.name for p in tmp_path.iterdir())
     assert names == ["fandisk_noise0.6.gt.xyzn", "fandisk_noise0.6.xyz", "index.json"]
     assert np.loadtxt(tmp_path / "fandisk_noise0.6.gt.xyzn").shape == (2000, 6)
+
+
+@needs_cgal
+def test_train_subset_layout(tmp_path, capsys):
+    assert datagen.main(["--list"]) == 0
+    assert "SharpFeature" in capsys.readouterr().out
+    datagen.main(["--out", str(tmp_path), "--set", "train", "--subset", "--points", "500",
+                  "--jobs", "1"])
+    index = json.loads((tmp_path / "train" / "index.json").read_text())
+    models = {c["model"] for c in index["clouds"]}
+    assert models and not models & set(datagen.BENCHMARK_MODELS)
+    assert not any(c["test_only"] for c in index["clouds"])
+    for c in index["clouds"]:
+        for f in c["files"]:
+            assert (tmp_path / "train" / f).is_file()
+    levels = {c["noise_percent"] for c in index["clouds"] if c["variant"] == "uniform"}
+    assert levels == set(datagen.TRAIN_LEVELS)

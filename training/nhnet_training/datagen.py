@@ -15,7 +15,7 @@ Command line::
     nhnet-datagen --out DIR [--set benchmark|train|sample|all] [--points N] [--subset]
                   [--seed S] [--categories A,B] [--jobs J]
 
-Output, per cloud, in ``DIR/<set>/<category>/``::
+Output, per cloud, in ``DIR/benchmark/<category>/`` or ``DIR/train/``::
 
     <name>.xyz        noisy points "x y z" (%.9g), one per line
     <name>.normals    ground-truth unit normals "nx ny nz", same order
@@ -105,7 +105,7 @@ TRAIN_DENSITY_LEVELS = [0.0, 0.3]
 
 SAMPLE_MODEL, SAMPLE_LEVEL, SAMPLE_POINTS = "fandisk", 0.6, 20000
 
-DEFAULT_POINTS = {"benchmark": 100000, "train": 20000}
+DEFAULT_POINTS = {"benchmark": 100000, "train": 50000}
 SUBSET_POINTS = 10000
 SUBSET_MODELS_PER_CATEGORY = 2
 
@@ -374,6 +374,7 @@ def generate(out: str | os.PathLike, which: str, points: int | None = None,
         plan = plan_benchmark(n, subset, categories) if which == "benchmark" \
             else plan_train(n, subset)
         set_dir = out / which
+        flat = which == "train"  # one category: DIR/train/<name>.*
         if which == "train":
             models = {j.model for j in plan}
             assert not (models & set(BENCHMARK_MODELS)), "train/benchmark overlap"
@@ -417,7 +418,7 @@ def main(argv: list[str] | None = None) -> int:
         prog="nhnet-datagen",
         description="Deterministic benchmark/training point clouds with ground-truth normals, "
                     "sampled from the CGAL demo meshes (libcgal-demo).")
-    ap.add_argument("--out", required=True, help="output directory")
+    ap.add_argument("--out", required=False, help="output directory")
     ap.add_argument("--set", dest="which", default="benchmark",
                     choices=["benchmark", "train", "sample", "all"],
                     help="which set ('all' = benchmark + train); default benchmark")
@@ -434,7 +435,19 @@ def main(argv: list[str] | None = None) -> int:
                          "(SharpFeature,RichFeature,SmoothSurface,BigNoise,PCPNetNoise,"
                          "PCPNetDensity)")
     ap.add_argument("--jobs", type=int, default=None, help="worker processes (default: CPUs)")
+    ap.add_argument("--list", action="store_true", help="print the model splits and exit")
     a = ap.parse_args(argv)
+    if a.list:
+        for cat, (models, levels) in BENCHMARK_CATEGORIES.items():
+            print(f"{cat:14s} noise {levels}: {' '.join(models)}")
+        print(f"{'PCPNetNoise':14s} noise {PCPNET_LEVELS}: all {len(BENCHMARK_MODELS)} above")
+        print(f"{'PCPNetDensity':14s} {DENSITY_VARIANTS} at noise {BENCHMARK_DENSITY_LEVEL}")
+        print(f"{'train':14s} noise {TRAIN_LEVELS}, {DENSITY_VARIANTS} at "
+              f"{TRAIN_DENSITY_LEVELS}: {' '.join(TRAIN_MODELS)}")
+        print(f"{'excluded':14s} near-duplicates of benchmark models: {' '.join(NEAR_DUPLICATES)}")
+        return 0
+    if not a.out:
+        ap.error("--out is required")
     if a.points is not None and a.points <= 0:
         ap.error("--points must be positive")
     cats = None
