@@ -490,15 +490,15 @@ case_interrupt() {
 # Progress bar: drawn on a terminal (via script(1)), never when stderr is not a terminal.
 case_progress_bar() {
   command -v script >/dev/null || skip "script(1) not available"
-  gen_sphere 20000 10 in.xyz
-  script -qec "'$CLI' estimate in.xyz a.ply" /dev/null >tty.txt 2>&1 </dev/null \
+  gen_sphere 20000 10 in.xyz  # PCA below: the bar is what is tested, not the method
+  script -qec "'$CLI' estimate in.xyz a.ply --method pca" /dev/null >tty.txt 2>&1 </dev/null \
     || fail "estimate under a pty failed: $(cat tty.txt)"
   grep -aq '%' tty.txt || fail "no progress bar on a terminal: $(cat -v tty.txt)"
   grep -aq $'\033\[K' tty.txt || fail "progress bar never cleared"
-  script -qec "'$CLI' estimate in.xyz b.ply --quiet" /dev/null >tty.txt 2>&1 </dev/null \
+  script -qec "'$CLI' estimate in.xyz b.ply --quiet --method pca" /dev/null >tty.txt 2>&1 </dev/null \
     || fail "estimate --quiet under a pty failed"
   [[ ! -s tty.txt ]] || fail "--quiet printed on a terminal: $(cat -v tty.txt)"
-  expect 0 estimate in.xyz c.ply
+  expect 0 estimate in.xyz c.ply --method pca
   ! grep -q '%' stderr.txt || fail "progress bar drawn although stderr is not a terminal"
 }
 

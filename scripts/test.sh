@@ -1,0 +1,49 @@
+#!/usr/bin/env bash
+# Runs every test of the project on a fresh Debian 12 machine (run as root, or with sudo):
+#   bash scripts/test.sh
+# Installs the Debian packages, builds into build/, runs ctest (C++ unit tests and CLI tests)
+# and pytest on tests/python with Debian's /usr/bin/python3. Exits non-zero if anything fails.
+# Safe to run again (idempotent). CI runs exactly this through .ci/run.
+set -euo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/.."
+
+echo "== 1/4 Debian packages"
+bash scripts/install-deps.sh
+
+echo "== 2/4 configure and build (build/)"
+if [[ -f build/CMakeCache.txt ]]; then
+  cmake -S . -B build                      # keep the generator the build dir was made with
+else
+  cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release
+fi
+cmake --build build -j2
+
+failed=()
+
+echo "== 3/4 ctest (C++ and CLI tests)"
+if ! (cd build && ctest --output-on-failure -j2); then
+  failed+=(ctest)
+fi
+
+echo "== 4/4 pytest (tests/python)"
+if [[ -d tests/python ]]; then
+  has_tests=$(find tests/python -type f \( -name 'test_*.py' -o -name '*_test.py' \) | head -n 1)
+  set +e
+  PYTHONPATH="$PWD/training${PYTHONPATH:+:$PYTHONPATH}" /usr/bin/python3 -m pytest tests/python -q
+  rc=$?
+  set -e
+  if [[ $rc == 5 && -z $has_tests ]]; then
+    echo "pytest: no test files in tests/python"
+  elif [[ $rc != 0 ]]; then
+    echo "pytest failed (exit $rc)"
+    failed+=(pytest)
+  fi
+else
+  echo "pytest: no tests/python directory; skipped"
+fi
+
+if ((${#failed[@]})); then
+  echo "FAILED: ${failed[*]}" >&2
+  exit 1
+fi
+echo "ALL TESTS PASSED"
