@@ -5,6 +5,10 @@
 #include "nhnet/errors.hpp"
 #include "nhnet/neighbors.hpp"
 #include "nhnet/pca.hpp"
+#include "nhnet/bandwidth.hpp"
+#include "nhnet/feature_detection.hpp"
+#include "nhnet/mfps.hpp"
+#include "nhnet/scales.hpp"
 #include "parallel.hpp"
 
 #include <algorithm>
@@ -45,12 +49,32 @@ int64_t orient_like(Normals& normals, const Normals& reference) {
 
 namespace nhnet {
 
+namespace {
+/// Narrows the user's callback to [begin, end] of the overall range.
+RunContext narrow(const RunContext& run, double begin, double end) {
+  RunContext r;
+  r.threads = run.threads;
+  if (run.progress) {
+    ProgressCallback cb = run.progress;
+    r.progress = [cb, begin, end](double f, const std::string& stage) {
+      return cb(begin + (end - begin) * f, stage);
+    };
+  }
+  return r;
+}
+
+int max_scale(const std::vector<int>& scales) {
+  return scales.empty() ? 0 : *std::max_element(scales.begin(), scales.end());
+}
+}  // namespace
+
 EstimateResult estimate_normals(const Points& points, const EstimateOptions& options) {
   if (options.k < 0 || options.k == 1 || options.k == 2)
     throw InvalidOptions("k must be 0 (auto) or at least 3, got " + std::to_string(options.k));
   for (int s : options.scales)
-    if (s < 3) throw InvalidOptions("every scale must be at least 3, got " + std::to_string(s));
+    if (s < 4) throw InvalidOptions("every scale must be at least 4, got " + std::to_string(s));
   if (options.run.threads < 0) throw InvalidOptions("threads must be >= 0");
+  if (options.mfps_samples < 1) throw InvalidOptions("mfps samples must be >= 1");
 
   EstimateResult res;
   const Eigen::Index n = points.rows();
@@ -68,24 +92,85 @@ EstimateResult estimate_normals(const Points& points, const EstimateOptions& opt
   if (Eigen::Index(finite.size()) < n)
     res.warnings.push_back(std::to_string(n - Eigen::Index(finite.size())) +
                            " non-finite points skipped (reported as failed)");
-  Points pts(Eigen::Index(finite.size()), 3);
-  for (size_t i = 0; i < finite.size(); ++i) pts.row(Eigen::Index(i)) = points.row(finite[i]);
+  const Eigen::Index m = Eigen::Index(finite.size());
+  Points pts(m, 3);
+  for (Eigen::Index i = 0; i < m; ++i) pts.row(i) = points.row(finite[size_t(i)]);
 
-  const int k = options.k > 0 ? options.k : 35;
-  res.k_used = int(std::min<Eigen::Index>(k, pts.rows()));
+  const RunContext& run = options.run;
+  detail::Progress top(run.progress);
+  if (run.progress) top.stage("kd-tree", 0, 0.02);
   Neighbors tree(pts);
-  IndexMatrix knn;
-  tree.knn_all(res.k_used, knn, nullptr, options.run);
-  const PcaResult pca = pca_normals(pts, knn, PcaOptions{res.k_used}, options.run);
+  top.throw_if_cancelled();
 
-  for (size_t i = 0; i < finite.size(); ++i) {
-    const Eigen::RowVector3d nrm = pca.normals.row(Eigen::Index(i));
-    if (nrm.allFinite()) {
-      res.normals.row(finite[i]) = nrm;
-      res.valid[size_t(finite[i])] = 1;
+  // Noise probe: PCA residuals of the probe neighbourhoods against the point spacing.
+  // Skipped when every size is given explicitly.
+  const bool need_probe =
+      options.k == 0 || (options.method == Method::Mfps && options.scales.empty());
+  const int kprobe = int(std::min<Eigen::Index>(kNoiseProbeK, m));
+  IndexMatrix knn;
+  DistanceMatrix d2;
+  if (need_probe) tree.knn_all(kprobe, knn, &d2, narrow(run, 0.02, 0.12));
+  if (need_probe && kprobe >= 4) {
+    const PcaResult probe = pca_normals(pts, knn, PcaOptions{kprobe}, narrow(run, 0.12, 0.2));
+    const NoiseEstimate ne = estimate_noise(d2, probe.residual_rms);
+    res.noise_ratio = ne.ratio;
+    res.spacing = ne.spacing;
+  }
+  ScaleChoice choice = choose_scales(res.noise_ratio, m);
+  if (options.k > 0) choice.k_smooth = options.k;
+  if (!options.scales.empty()) choice.scales = options.scales;
+  if (choice.k_smooth > m) {
+    res.warnings.push_back("k=" + std::to_string(choice.k_smooth) + " exceeds the " +
+                           std::to_string(m) + " finite points; clamped");
+    choice.k_smooth = int(m);
+  }
+  res.k_used = choice.k_smooth;
+  const int kneed =
+      options.method == Method::Mfps ? std::max(res.k_used, max_scale(choice.scales)) : res.k_used;
+  if (kneed > m && options.method == Method::Mfps)
+    res.warnings.push_back("largest scale " + std::to_string(kneed) + " exceeds the " +
+                           std::to_string(m) + " finite points; scales clamped");
+  if (kneed != knn.cols()) tree.knn_all(kneed, knn, nullptr, narrow(run, 0.2, 0.35));
+
+  const PcaResult pca = pca_normals(pts, knn, PcaOptions{res.k_used}, narrow(run, 0.35, 0.45));
+  Normals out = pca.normals;
+  if (options.method == Method::Mfps) {
+    const FeatureDetection fd = detect_feature_candidates(pca.variation);
+    res.candidates = fd.count;
+    BandwidthOptions bo;
+    bo.k_patch = res.k_used;
+    bo.k_average = int(knn.cols());
+    const Eigen::VectorXd bw = residual_bandwidth(pts, knn, res.spacing, bo, narrow(run, 0.45, 0.55));
+    MfpsOptions mo;
+    mo.scales = choice.scales;
+    for (int& s : mo.scales) s = int(std::min<Eigen::Index>(s, m));
+    mo.seed = options.seed;
+    mo.samples = options.mfps_samples;
+    mo.score_subset = options.mfps_score_subset;
+    mo.rescore = options.mfps_rescore;
+    mo.refine_iterations = options.mfps_refine_iterations;
+    const MfpsResult mr = mfps_normals(pts, knn, 2.0 * bw, fd.candidate, pca.normals, mo,
+                                       narrow(run, 0.55, 1.0));
+    res.scales_used = mo.scales;
+    out = mr.normals;
+  }
+
+  for (Eigen::Index i = 0; i < m; ++i) {
+    const Eigen::RowVector3d nrm = out.row(i);
+    if (nrm.allFinite() && nrm.squaredNorm() > 0.5) {
+      res.normals.row(finite[size_t(i)]) = nrm.normalized();
+      res.valid[size_t(finite[size_t(i)])] = 1;
     }
   }
   res.failed = int64_t(std::count(res.valid.begin(), res.valid.end(), uint8_t(0)));
+  if (res.failed > n - m)
+    res.warnings.push_back(std::to_string(res.failed - (n - m)) +
+                           " points with a degenerate neighbourhood (identical or collinear "
+                           "neighbours) got no normal (reported as failed)");
+  if (run.progress) {
+    top.stage("done", 1, 1);
+    top.throw_if_cancelled();
+  }
   return res;
 }
 

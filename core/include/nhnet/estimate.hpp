@@ -32,6 +32,12 @@ struct EstimateOptions {
   /// Seed of the random plane samples of MFPS (results are deterministic for a given seed and
   /// independent of the thread count).
   uint64_t seed = 1;
+  /// MFPS plane search (advanced; see mfps.hpp): random 4-point planes per patch, members each
+  /// is scored on (0 = all), best samples re-scored on the whole patch, IRLS refinement steps.
+  int mfps_samples = 40;
+  int mfps_score_subset = 48;
+  int mfps_rescore = 3;
+  int mfps_refine_iterations = 3;
   /// Threads (0 = all cores) and progress/cancel callback.
   RunContext run;
 };

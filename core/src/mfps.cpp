@@ -1,0 +1,291 @@
+// Multi-scale fitting patch selection: paper Eq. 1-4 (Sec. 4.1-4.2). See mfps.hpp for the
+// choices the paper leaves open.
+#include "nhnet/mfps.hpp"
+
+#include "nhnet/errors.hpp"
+#include "nhnet/pca.hpp"
+#include "parallel.hpp"
+
+#include <Eigen/Eigenvalues>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace nhnet {
+
+namespace {
+
+/// splitmix64: small, fast, good enough to draw sample indices; seeded per patch so results do
+/// not depend on scheduling.
+struct SplitMix {
+  uint64_t s;
+  uint64_t next() {
+    uint64_t z = (s += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+  }
+  int below(int n) { return int(next() % uint64_t(n)); }
+};
+
+struct Plane {
+  Eigen::Vector3d n = Eigen::Vector3d::Zero();  // unit normal
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();  // point on the plane (patch-local coordinates)
+};
+
+/// Least-squares plane of weighted patch-local points; false when degenerate.
+bool weighted_plane(const std::vector<Eigen::Vector3d>& q, const double* w, Plane& out) {
+  double ws = 0;
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();
+  for (size_t k = 0; k < q.size(); ++k) {
+    ws += w[k];
+    c += w[k] * q[k];
+  }
+  if (!(ws > 0)) return false;
+  c /= ws;
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (size_t k = 0; k < q.size(); ++k) {
+    const Eigen::Vector3d d = q[k] - c;
+    cov.noalias() += w[k] * d * d.transpose();
+  }
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
+  const Eigen::Vector3d ev = es.eigenvalues();
+  if (!(ev[1] > 1e-14 * std::max(ev[2], 1e-300))) return false;
+  out.n = es.eigenvectors().col(0).normalized();
+  out.c = c;
+  return true;
+}
+
+/// Plane through 4 patch-local points (least squares); false when degenerate.
+bool four_point_plane(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c,
+                      const Eigen::Vector3d& d, Plane& out) {
+  const Eigen::Vector3d m = 0.25 * (a + b + c + d);
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (const Eigen::Vector3d* p : {&a, &b, &c, &d}) {
+    const Eigen::Vector3d e = *p - m;
+    cov.noalias() += e * e.transpose();
+  }
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
+  es.computeDirect(cov);
+  const Eigen::Vector3d ev = es.eigenvalues();
+  if (!(ev[1] > 1e-12 * std::max(ev[2], 1e-300))) return false;
+  Eigen::Vector3d n = es.eigenvectors().col(0);
+  const double nn = n.norm();
+  if (!(nn > 0.5)) return false;
+  out.n = n / nn;
+  out.c = m;
+  return true;
+}
+
+/// E of Eq. 1 (mean Gaussian kernel of residuals) over members `idx` (all if null).
+double objective(const std::vector<Eigen::Vector3d>& q, const Plane& pl, double inv_s2,
+                 const std::vector<int>* idx) {
+  double e = 0;
+  if (idx) {
+    for (int k : *idx) {
+      const double r = (q[size_t(k)] - pl.c).dot(pl.n);
+      e += std::exp(-r * r * inv_s2);
+    }
+    return e / double(idx->size());
+  }
+  for (const auto& p : q) {
+    const double r = (p - pl.c).dot(pl.n);
+    e += std::exp(-r * r * inv_s2);
+  }
+  return e / double(q.size());
+}
+
+}  // namespace
+
+MfpsResult mfps_normals(const Points& points, const IndexMatrix& knn, const Eigen::VectorXd& sigma,
+                        const std::vector<uint8_t>& candidate, const Normals& base_normals,
+                        const MfpsOptions& options, const RunContext& run) {
+  const Eigen::Index n = points.rows();
+  if (knn.rows() != n || sigma.size() != n || Eigen::Index(candidate.size()) != n ||
+      base_normals.rows() != n)
+    throw InvalidOptions("mfps_normals: inputs must have one row per point");
+  if (options.scales.empty()) throw InvalidOptions("mfps: at least one scale is needed");
+  std::vector<int> scales = options.scales;
+  std::sort(scales.begin(), scales.end());
+  scales.erase(std::unique(scales.begin(), scales.end()), scales.end());
+  for (int& k : scales) k = int(std::min<Eigen::Index>(k, knn.cols()));
+  scales.erase(std::unique(scales.begin(), scales.end()), scales.end());
+  if (scales.front() < 4) throw InvalidOptions("mfps: scales must be at least 4");
+  if (options.samples < 1) throw InvalidOptions("mfps: samples must be >= 1");
+  const int ns = int(scales.size());
+  const int kmin = scales.front(), kmax = scales.back();
+  auto eta = [&](int k) {
+    return kmax == kmin ? 1.0
+                        : options.alpha + (1 - options.alpha) * double(k - kmin) / double(kmax - kmin);
+  };
+
+  MfpsResult res;
+  res.normals = base_normals;
+  res.chosen_scale.assign(size_t(n), 0);
+
+  // Patches that contain at least one candidate, per scale: a patch at scale s contains a
+  // candidate iff one of its first K members is one. first_cand[j] = column of the first
+  // candidate in row j (or a large number).
+  std::vector<int> first_cand(size_t(n), std::numeric_limits<int>::max());
+  for (Eigen::Index j = 0; j < n; ++j)
+    for (Eigen::Index t = 0; t < std::min<Eigen::Index>(kmax, knn.cols()); ++t)
+      if (candidate[size_t(knn(j, t))]) {
+        first_cand[size_t(j)] = int(t);
+        break;
+      }
+
+  // Phase 1 (Eq. 1-2): the plane of every patch that contains a candidate.
+  std::vector<Eigen::Vector3f> plane_n(size_t(n) * ns, Eigen::Vector3f::Zero());
+  std::vector<Eigen::Vector3d> plane_c(size_t(n) * ns, Eigen::Vector3d::Zero());
+  std::vector<double> plane_e(size_t(n) * ns, -1.0);
+  std::atomic<int64_t> fallbacks{0}, patches{0};
+  detail::Progress progress(run.progress);
+  if (run.progress) progress.stage("mfps planes", 0, 0.9);
+  detail::parallel_for(n, run.threads, run.progress ? &progress : nullptr, [&](int64_t j) {
+    if (first_cand[size_t(j)] == std::numeric_limits<int>::max()) return;
+    thread_local std::vector<Eigen::Vector3d> q;
+    thread_local std::vector<double> w;
+    thread_local std::vector<int> subset;
+    thread_local std::vector<std::pair<double, int>> scored;
+    thread_local std::vector<Plane> cands;
+    const Eigen::Vector3d pj = points.row(j).transpose();
+    const double sj = sigma[j];
+    const double inv_s2 = 1.0 / (sj * sj);
+    for (int s = 0; s < ns; ++s) {
+      const int K = scales[size_t(s)];
+      if (first_cand[size_t(j)] >= K) continue;
+      patches.fetch_add(1, std::memory_order_relaxed);
+      q.resize(size_t(K));
+      for (int t = 0; t < K; ++t) q[size_t(t)] = points.row(knn(j, t)).transpose() - pj;
+      SplitMix rng{options.seed * 0x9E3779B97F4A7C15ull ^ (uint64_t(j) << 8) ^ uint64_t(K)};
+      // Scoring subset: the centre plus random members (all when score_subset is 0 or >= K).
+      const std::vector<int>* sub = nullptr;
+      if (options.score_subset > 0 && options.score_subset < K) {
+        subset.clear();
+        subset.push_back(0);
+        for (int t = 1; t < K; ++t) subset.push_back(t);
+        for (int t = 1; t < options.score_subset; ++t)
+          std::swap(subset[size_t(t)], subset[size_t(t + rng.below(K - t))]);
+        subset.resize(size_t(options.score_subset));
+        sub = &subset;
+      }
+      scored.clear();
+      cands.clear();
+      for (int m = 0; m < options.samples; ++m) {
+        int a = 1 + rng.below(K - 1), b = 1 + rng.below(K - 1), c = 1 + rng.below(K - 1);
+        for (int guard = 0; (b == a) && guard < 8; ++guard) b = 1 + rng.below(K - 1);
+        for (int guard = 0; (c == a || c == b) && guard < 8; ++guard) c = 1 + rng.below(K - 1);
+        if (a == b || a == c || b == c) continue;
+        Plane pl;
+        if (!four_point_plane(q[0], q[size_t(a)], q[size_t(b)], q[size_t(c)], pl)) continue;
+        const double r0 = (q[0] - pl.c).dot(pl.n);
+        if (r0 * r0 > sj * sj) continue;  // the plane must pass near the patch centre
+        scored.emplace_back(objective(q, pl, inv_s2, sub), int(cands.size()));
+        cands.push_back(pl);
+      }
+      Plane best;
+      double best_e = -1;
+      if (scored.empty()) {
+        // Every sample rejected: fall back to the least-squares plane of the whole patch.
+        w.assign(size_t(K), 1.0);
+        if (!weighted_plane(q, w.data(), best)) continue;
+        best_e = objective(q, best, inv_s2, nullptr);
+        fallbacks.fetch_add(1, std::memory_order_relaxed);
+      } else {
+        const size_t keep = std::min(scored.size(), size_t(std::max(1, options.rescore)));
+        std::partial_sort(scored.begin(), scored.begin() + long(keep), scored.end(),
+                          [](const auto& x, const auto& y) {
+                            return x.first > y.first || (x.first == y.first && x.second < y.second);
+                          });
+        for (size_t t = 0; t < keep; ++t) {
+          const Plane& pl = cands[size_t(scored[t].second)];
+          const double e = sub ? objective(q, pl, inv_s2, nullptr) : scored[t].first;
+          if (e > best_e) {
+            best_e = e;
+            best = pl;
+          }
+        }
+      }
+      // IRLS: weighted PCA with the Gaussian weights of the current plane increases E.
+      for (int it = 0; it < options.refine_iterations; ++it) {
+        w.resize(size_t(K));
+        for (int t = 0; t < K; ++t) {
+          const double r = (q[size_t(t)] - best.c).dot(best.n);
+          w[size_t(t)] = std::exp(-r * r * inv_s2);
+        }
+        Plane next;
+        if (!weighted_plane(q, w.data(), next)) break;
+        const double e = objective(q, next, inv_s2, nullptr);
+        if (!(e > best_e)) break;
+        best_e = e;
+        best = next;
+      }
+      const size_t slot = size_t(j) * size_t(ns) + size_t(s);
+      plane_n[slot] = best.n.cast<float>();
+      plane_c[slot] = best.c + pj;
+      plane_e[slot] = best_e;
+    }
+  });
+  res.fallback_patches = fallbacks.load();
+  res.patches = patches.load();
+
+  // Phase 2 (Eq. 3-4): every candidate keeps the best-scoring patch that contains it. Each
+  // thread scans a share of the patches; ties go to the lower patch id so the result does not
+  // depend on the thread count.
+  std::vector<int32_t> cand_id(size_t(n), -1);
+  int32_t nc = 0;
+  for (Eigen::Index i = 0; i < n; ++i)
+    if (candidate[size_t(i)]) cand_id[size_t(i)] = nc++;
+  const int nt = detail::thread_count(run.threads);
+  std::vector<std::vector<double>> best_score(size_t(nt), std::vector<double>(size_t(nc), -1.0));
+  std::vector<std::vector<int64_t>> best_slot(size_t(nt), std::vector<int64_t>(size_t(nc), -1));
+  if (run.progress) progress.stage("mfps selection", 0.9, 1.0);
+#pragma omp parallel for schedule(static) num_threads(nt)
+  for (int64_t j = 0; j < int64_t(n); ++j) {
+    auto& bs = best_score[size_t(omp_get_thread_num())];
+    auto& bp = best_slot[size_t(omp_get_thread_num())];
+    for (int s = 0; s < ns; ++s) {
+      const size_t slot = size_t(j) * size_t(ns) + size_t(s);
+      if (plane_e[slot] < 0) continue;
+      const Eigen::Vector3d nrm = plane_n[slot].cast<double>();
+      const double e = plane_e[slot] * eta(scales[size_t(s)]);
+      for (int t = 0; t < scales[size_t(s)]; ++t) {
+        const int32_t i = knn(j, t);
+        const int32_t c = cand_id[size_t(i)];
+        if (c < 0) continue;
+        const double r = (points.row(i).transpose() - plane_c[slot]).dot(nrm);
+        const double si = sigma[i];
+        const double score = e * std::exp(-r * r / (si * si));
+        if (score > bs[size_t(c)] || (score == bs[size_t(c)] && int64_t(slot) < bp[size_t(c)])) {
+          bs[size_t(c)] = score;
+          bp[size_t(c)] = int64_t(slot);
+        }
+      }
+    }
+  }
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const int32_t c = cand_id[size_t(i)];
+    if (c < 0) continue;
+    double score = -1;
+    int64_t slot = -1;
+    for (int t = 0; t < nt; ++t) {
+      const double sc = best_score[size_t(t)][size_t(c)];
+      const int64_t sl = best_slot[size_t(t)][size_t(c)];
+      if (sl >= 0 && (sc > score || (sc == score && sl < slot))) {
+        score = sc;
+        slot = sl;
+      }
+    }
+    if (slot < 0) continue;  // no patch (only when every patch containing it was degenerate)
+    res.normals.row(i) = plane_n[size_t(slot)].cast<double>().transpose();
+    res.chosen_scale[size_t(i)] = scales[size_t(slot % ns)];
+  }
+  if (run.progress) {
+    progress.report(1.0);
+    progress.throw_if_cancelled();
+  }
+  return res;
+}
+
+}  // namespace nhnet

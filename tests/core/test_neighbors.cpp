@@ -1,0 +1,58 @@
+// kd-tree: kNN matches brute force, self first even with duplicates, far-from-origin clouds.
+#include "fixtures.hpp"
+
+#include "nhnet/neighbors.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <vector>
+
+using namespace nhnet;
+
+TEST(Neighbors, KnnMatchesBruteForce) {
+  const auto f = fixtures::sphere(2000, 4);
+  Neighbors tree(f.points);
+  IndexMatrix idx;
+  DistanceMatrix d2;
+  tree.knn_all(12, idx, &d2);
+  for (int i = 0; i < 2000; i += 97) {
+    std::vector<double> all;
+    for (int j = 0; j < 2000; ++j) all.push_back((f.points.row(j) - f.points.row(i)).squaredNorm());
+    std::sort(all.begin(), all.end());
+    EXPECT_EQ(idx(i, 0), i);
+    for (int t = 0; t < 12; ++t) EXPECT_NEAR(d2(i, t), all[size_t(t)], 1e-6);
+  }
+}
+
+TEST(Neighbors, SelfFirstWithExactDuplicates) {
+  Points p(40, 3);
+  for (int i = 0; i < 40; ++i) p.row(i) << (i % 4), 0.0, 0.0;  // each point 10 times
+  Neighbors tree(p);
+  IndexMatrix idx;
+  tree.knn_all(5, idx, nullptr);
+  for (int i = 0; i < 40; ++i) EXPECT_EQ(idx(i, 0), i);
+}
+
+TEST(Neighbors, FarFromOriginKeepsPrecision) {
+  auto f = fixtures::plane(1000, 2);
+  Points shifted = f.points;
+  shifted.col(0).array() += 5e6;  // UTM-scale easting
+  shifted.col(1).array() += 4e6;
+  Neighbors a(f.points), b(shifted);
+  IndexMatrix ia, ib;
+  a.knn_all(8, ia, nullptr);
+  b.knn_all(8, ib, nullptr);
+  // Re-centring in double keeps the neighbour sets identical.
+  EXPECT_EQ((ia - ib).cwiseAbs().maxCoeff(), 0);
+}
+
+TEST(Neighbors, RadiusQuery) {
+  const auto f = fixtures::plane(3000, 9);
+  Neighbors tree(f.points);
+  std::vector<std::pair<int32_t, float>> out;
+  tree.radius(Eigen::Vector3d(0, 0, 0), 0.1, out);
+  int brute = 0;
+  for (int j = 0; j < 3000; ++j) brute += f.points.row(j).squaredNorm() < 0.01;
+  EXPECT_EQ(int(out.size()), brute);
+}
