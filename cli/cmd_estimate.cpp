@@ -161,10 +161,7 @@ int run_estimate(const EstimateArgs& a) {
 Command add_estimate_command(CLI::App& parent) {
   auto args = std::make_shared<EstimateArgs>();
   CLI::App* sub = parent.add_subcommand(
-      "estimate",
-      "Estimate unit normals of a point cloud and write the cloud with them.\n"
-      "Normals are UNORIENTED (sign arbitrary) unless --orient keep flips them to agree with\n"
-      "the input's own normals. Points that fail (non-finite, degenerate) get NaN normals.");
+      "estimate", "Estimate unit normals of a point cloud and write the cloud with them");
   sub->add_option("IN", args->in, "Input cloud (.ply, .pcd, .xyz/.xyzn/.txt; content is sniffed)")
       ->required();
   sub->add_option("OUT", args->out,
@@ -191,6 +188,9 @@ Command add_estimate_command(CLI::App& parent) {
                 "No progress bar and no summary line (warnings and errors still go to stderr)");
   sub->add_flag("--json", args->json, "Print the summary as one JSON object on stdout");
   sub->footer(
+      "Normals are UNORIENTED (sign arbitrary) unless --orient keep flips them to agree with\n"
+      "the input's own normals. Points that fail (non-finite, degenerate) get NaN normals.\n"
+      "Other per-point properties (colour, intensity, ...) are kept in PLY/PCD output.\n\n"
       "Examples:\n"
       "  nhnet-cli estimate scan.ply scan-normals.ply\n"
       "  nhnet-cli estimate scan.xyz out.pcd --method pca --k 30 --threads 4\n"

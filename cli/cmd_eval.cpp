@@ -94,15 +94,15 @@ int run_eval(const EvalArgs& a) {
 Command add_eval_command(CLI::App& parent) {
   auto args = std::make_shared<EvalArgs>();
   CLI::App* sub = parent.add_subcommand(
-      "eval",
-      "Compare the normals of EST with the ground truth GT (same points, same order).\n"
-      "Errors are unoriented angles acos(|n_est . n_gt|) in degrees: mean, RMS, and PGP5/PGP10,\n"
-      "the percentage of points under 5 / 10 degrees. Points whose normal is NaN or zero in\n"
-      "either file are counted as invalid and left out.");
+      "eval", "Angle errors of estimated normals against ground-truth normals");
   sub->add_option("EST", args->est, "Cloud with estimated normals")->required();
   sub->add_option("GT", args->gt, "Cloud with ground-truth normals")->required();
   sub->add_flag("--json", args->json, "Print the result as one JSON object");
   sub->footer(
+      "EST and GT hold the same points in the same order. Errors are unoriented angles\n"
+      "acos(|n_est . n_gt|) in degrees: mean, RMS, and PGP5 / PGP10, the percentage of points\n"
+      "under 5 / 10 degrees. Points whose normal is NaN or zero in either file are counted as\n"
+      "invalid and left out.\n\n"
       "Example:\n"
       "  nhnet-cli estimate noisy.xyz est.xyzn && nhnet-cli eval est.xyzn noisy.gt.xyzn\n\n"
       "Exit codes: 0 ok, 2 point counts differ, 3 a file is unreadable or has no normals,\n"

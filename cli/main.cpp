@@ -76,6 +76,18 @@ int main(int argc, char** argv) {
     return fail(nhcli::kFailure, std::string("internal error: ") + e.what());
   }
 
+  if (argc > 1 && argv[1][0] != '-') {  // a mistyped subcommand: say so, not "one is required"
+    bool known = false;
+    std::string names;
+    for (const auto& c : commands) {
+      known = known || c.app->get_name() == argv[1];
+      names += (names.empty() ? "" : ", ") + c.app->get_name();
+    }
+    if (!known)
+      return fail(nhcli::kUsage, std::string("unknown subcommand '") + argv[1] + "' (expected one of: " +
+                                     names + "; see 'nhnet-cli --help')");
+  }
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::Success& e) {  // --help, --help-all, --version
