@@ -465,12 +465,15 @@ case_interrupt() {
     "$CLI" estimate big.xyz out.ply --threads 1 >stdout.txt 2>stderr.txt &
     local pid=$!
     set +m
-    # Wait until nhnet-cli has installed its handler (bit set in SigCgt), then signal it.
+    # Wait until the child has exec'd nhnet-cli (before that it is a bash that catches signals
+    # of its own) and nhnet-cli has installed its handler (bit set in SigCgt), then signal it.
     local i caught=0
-    for ((i = 0; i < 500; i++)); do
-      local cgt
-      cgt=$(awk '/^SigCgt:/ { print $2 }' "/proc/$pid/status" 2>/dev/null || echo 0)
-      if (((16#$cgt >> bit) & 1)); then caught=1; break; fi
+    for ((i = 0; i < 1000; i++)); do
+      if [[ $(readlink "/proc/$pid/exe" 2>/dev/null || true) == "$CLI" ]]; then
+        local cgt
+        cgt=$(awk '/^SigCgt:/ { print $2 }' "/proc/$pid/status" 2>/dev/null || echo 0)
+        if (((16#$cgt >> bit) & 1)); then caught=1; break; fi
+      fi
       sleep 0.01
     done
     ((caught)) || { kill -KILL "$pid" 2>/dev/null || true; fail "nhnet-cli never installed a SIG$sig handler"; }
