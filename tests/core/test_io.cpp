@@ -479,6 +479,13 @@ TEST_F(IoTest, XyzCommentsBlankLinesNanAndColumns) {
   EXPECT_EQ(e.extras[0].name, "scalar_6");
   EXPECT_EQ(e.extras[1].values[1], 10.0);
 
+  // 4 or 5 columns: x y z plus extras (no partial normals)
+  const Cloud i4 = read_cloud(put("i.xyz", "1 2 3 0.5\n4 5 6 0.75\n"));
+  EXPECT_FALSE(i4.has_normals());
+  ASSERT_EQ(i4.extras.size(), 1u);
+  EXPECT_EQ(i4.extras[0].name, "scalar_3");
+  EXPECT_EQ(i4.extras[0].values[1], 0.75);
+
   // out-of-range magnitudes are non-finite / zero, never an error or 0 for huge values
   const Cloud r = read_cloud(put("r.xyz", "1e400 -1e400 1e-400\n"));
   EXPECT_TRUE(std::isinf(r.points(0, 0)));
