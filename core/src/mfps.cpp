@@ -264,21 +264,78 @@ MfpsResult mfps_normals(const Points& points, const IndexMatrix& knn, const Eige
       }
     }
   }
-  for (Eigen::Index i = 0; i < n; ++i) {
-    const int32_t c = cand_id[size_t(i)];
-    if (c < 0) continue;
-    double score = -1;
-    int64_t slot = -1;
+  std::vector<double> best_all(size_t(nc), -1.0);
+  std::vector<int64_t> slot_all(size_t(nc), -1);
+  for (int32_t c = 0; c < nc; ++c) {
     for (int t = 0; t < nt; ++t) {
       const double sc = best_score[size_t(t)][size_t(c)];
       const int64_t sl = best_slot[size_t(t)][size_t(c)];
-      if (sl >= 0 && (sc > score || (sc == score && sl < slot))) {
-        score = sc;
-        slot = sl;
+      if (sl >= 0 && (sc > best_all[size_t(c)] || (sc == best_all[size_t(c)] && sl < slot_all[size_t(c)]))) {
+        best_all[size_t(c)] = sc;
+        slot_all[size_t(c)] = sl;
       }
     }
+  }
+  // Soft selection: second pass accumulating weighted normal tensors (upper triangle, 6 values)
+  // in 2^-40 fixed point, so the sums are exact and do not depend on the thread count.
+  const double fixed_scale = 1099511627776.0;  // 2^40
+  std::vector<std::vector<int64_t>> tensor;
+  if (options.soft_gamma > 0) {
+    tensor.assign(size_t(nt), std::vector<int64_t>(size_t(nc) * 6, 0));
+#pragma omp parallel for schedule(static) num_threads(nt)
+    for (int64_t j = 0; j < int64_t(n); ++j) {
+      auto& tt = tensor[size_t(omp_get_thread_num())];
+      for (int s = 0; s < ns; ++s) {
+        const size_t slot = size_t(j) * size_t(ns) + size_t(s);
+        if (plane_e[slot] < 0) continue;
+        const Eigen::Vector3d nrm = plane_n[slot].cast<double>();
+        const double e = plane_e[slot] * eta(scales[size_t(s)]);
+        for (int t = 0; t < scales[size_t(s)]; ++t) {
+          const int32_t i = knn(j, t);
+          const int32_t c = cand_id[size_t(i)];
+          if (c < 0 || !(best_all[size_t(c)] > 0)) continue;
+          const double r = (points.row(i).transpose() - plane_c[slot]).dot(nrm);
+          const double si = sigma[i];
+          const double rel = e * std::exp(-r * r / (si * si)) / best_all[size_t(c)];
+          const double w = std::pow(std::min(rel, 1.0), options.soft_gamma);
+          if (w < 1e-12) continue;
+          int64_t* a = &tt[size_t(c) * 6];
+          const double ws = w * fixed_scale;
+          a[0] += std::llround(ws * nrm[0] * nrm[0]);
+          a[1] += std::llround(ws * nrm[0] * nrm[1]);
+          a[2] += std::llround(ws * nrm[0] * nrm[2]);
+          a[3] += std::llround(ws * nrm[1] * nrm[1]);
+          a[4] += std::llround(ws * nrm[1] * nrm[2]);
+          a[5] += std::llround(ws * nrm[2] * nrm[2]);
+        }
+      }
+    }
+  }
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const int32_t c = cand_id[size_t(i)];
+    if (c < 0) continue;
+    const int64_t slot = slot_all[size_t(c)];
     if (slot < 0) continue;  // no patch (only when every patch containing it was degenerate)
-    res.normals.row(i) = plane_n[size_t(slot)].cast<double>().transpose();
+    Eigen::Vector3d nrm = plane_n[size_t(slot)].cast<double>();
+    if (options.soft_gamma > 0) {
+      int64_t a[6] = {0, 0, 0, 0, 0, 0};
+      for (int t = 0; t < nt; ++t)
+        for (int u = 0; u < 6; ++u) a[u] += tensor[size_t(t)][size_t(c) * 6 + size_t(u)];
+      Eigen::Matrix3d T;
+      T(0, 0) = double(a[0]);
+      T(0, 1) = double(a[1]);
+      T(0, 2) = double(a[2]);
+      T(1, 1) = double(a[3]);
+      T(1, 2) = double(a[4]);
+      T(2, 2) = double(a[5]);
+      T(1, 0) = T(0, 1);
+      T(2, 0) = T(0, 2);
+      T(2, 1) = T(1, 2);
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(T);
+      const Eigen::Vector3d v = es.eigenvectors().col(2);
+      if (v.allFinite() && v.norm() > 0.5) nrm = v.normalized();
+    }
+    res.normals.row(i) = nrm.transpose();
     res.chosen_scale[size_t(i)] = scales[size_t(slot % ns)];
   }
   if (run.progress) {

@@ -10,6 +10,8 @@
 // refine the winner by a few iteratively reweighted least-squares steps, which climb E itself
 // (each step is the weighted-PCA fixed point of the Gaussian objective). Same E, fewer samples,
 // a maximiser that is not limited to 4-point planes: see the note on issue 2 for the numbers.
+// Selection is the paper's argmax by default; an optional soft selection (soft_gamma) trades a
+// little mean error for a lower RMS where two faces are equally likely.
 #pragma once
 
 #include "nhnet/progress.hpp"
@@ -34,6 +36,11 @@ struct MfpsOptions {
   int rescore = 1;
   /// IRLS refinement steps of the winning plane (0 = authors' behaviour).
   int refine_iterations = 0;
+  /// Patch selection (Eq. 3-4). 0 = the paper's argmax over S_i. gamma > 0 = soft selection:
+  /// the normal is the principal direction of sum_Q (D_Q / D_max)^gamma n_Q n_Q^T over S_i, which
+  /// equals the argmax when one patch dominates and splits the difference when two faces score
+  /// alike (there the argmax is a coin flip between 0 and 90 degrees, the worst case for RMS).
+  double soft_gamma = 0;
   /// Seed of the random samples; results do not depend on the thread count.
   uint64_t seed = 1;
 };
