@@ -7,6 +7,8 @@
 #include "nhnet/io.hpp"
 
 #include <gtest/gtest.h>
+#include <functional>
+#include <sys/wait.h>
 
 #include <sys/resource.h>
 #include <sys/stat.h>
@@ -503,6 +505,28 @@ TEST_F(IoTest, XyzPtsCountLineAndSniffing) {
   EXPECT_EQ(read_cloud(put("really_pcd.ply", pcd)).size(), 1);
 }
 
+
+// Runs `check` (returns true on the expected outcome) with the permissions of an unprivileged
+// user: directly when not root, else in a child process that drops to uid/gid 65534 (nobody),
+// because root bypasses file permissions. Returns true when the check held.
+static bool as_unprivileged(const std::function<bool()>& check) {
+  if (::geteuid() != 0) return check();
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    if (::setgid(65534) != 0 || ::setuid(65534) != 0) ::_exit(3);
+    bool ok = false;
+    try {
+      ok = check();
+    } catch (...) {
+      ok = false;
+    }
+    ::_exit(ok ? 0 : 1);
+  }
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  return WIFEXITED(status) && WEXITSTATUS(status) == 0;
+}
+
 // ---------------------------------------------------------------------------------------------
 // Bad input: files
 
@@ -514,8 +538,16 @@ TEST_F(IoTest, MissingDirectoryPermissionEmpty) {
   expect_input_error(put("empty.xyz", ""), "empty file");
   const std::string locked = put("locked.ply", "ply\n");
   ::chmod(locked.c_str(), 0);
-  if (::geteuid() == 0) GTEST_SKIP() << "running as root: permission checks do not apply";
-  expect_input_error(locked, "Permission denied");
+  ::chmod(path("").c_str(), 0755);  // the unprivileged reader must reach the file
+  EXPECT_TRUE(as_unprivileged([&] {
+    try {
+      read_cloud(locked);
+    } catch (const InputError& e) {
+      return std::string(e.what()).find("Permission denied") != std::string::npos &&
+             std::string(e.what()).find("locked.ply") != std::string::npos;
+    }
+    return false;
+  })) << "reading a mode-000 file must fail with 'Permission denied'";
 }
 
 TEST_F(IoTest, WrongMagicAndUnknownFormat) {
@@ -790,13 +822,17 @@ TEST_F(IoTest, FailedWriteKeepsExistingTargetAndRemovesTemp) {
 }
 
 TEST_F(IoTest, WriteIntoReadOnlyDirectory) {
-  if (::geteuid() == 0) GTEST_SKIP() << "running as root: permission checks do not apply";
   fs::create_directories(path("ro"));
+  ::chmod(path("").c_str(), 0755);
   ::chmod(path("ro").c_str(), 0555);
-  try {
-    write_cloud(path("ro/out.xyz"), make_cloud(5, false, false));
-    ADD_FAILURE() << "no OutputError";
-  } catch (const OutputError& e) {
-    EXPECT_NE(std::string(e.what()).find("Permission denied"), std::string::npos) << e.what();
-  }
+  const Cloud cloud = make_cloud(5, false, false);
+  EXPECT_TRUE(as_unprivileged([&] {
+    try {
+      write_cloud(path("ro/out.xyz"), cloud);
+    } catch (const OutputError& e) {
+      return std::string(e.what()).find("Permission denied") != std::string::npos;
+    }
+    return false;
+  })) << "writing into a read-only directory must fail with 'Permission denied'";
+  EXPECT_FALSE(fs::exists(path("ro/out.xyz")));
 }
