@@ -3,6 +3,7 @@
 #include "nhnet/feature_detection.hpp"
 
 #include "nhnet/errors.hpp"
+#include "stats.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -34,15 +35,6 @@ Eigen::VectorXd tv_denoise_1d(const Eigen::VectorXd& y, double lambda) {
   return x;
 }
 
-namespace {
-double quantile(std::vector<double> v, double q) {
-  if (v.empty()) return 0;
-  const size_t k = size_t(std::clamp(q, 0.0, 1.0) * double(v.size() - 1));
-  std::nth_element(v.begin(), v.begin() + long(k), v.end());
-  return v[k];
-}
-}  // namespace
-
 FeatureDetection detect_feature_candidates(const Eigen::VectorXd& variation,
                                            const FeatureDetectionOptions& options) {
   if (options.bins < 4) throw InvalidOptions("feature detection: bins must be >= 4");
@@ -54,7 +46,7 @@ FeatureDetection detect_feature_candidates(const Eigen::VectorXd& variation,
   for (Eigen::Index i = 0; i < n; ++i)
     if (std::isfinite(variation[i])) v.push_back(variation[i]);
   if (v.empty()) return out;
-  const double scale = quantile(v, options.normalising_quantile);
+  const double scale = detail::quantile(v, options.normalising_quantile);
   if (!(scale > 0)) return out;  // all neighbourhoods exactly planar: no candidates
 
   const int nb = options.bins;
@@ -75,7 +67,7 @@ FeatureDetection detect_feature_candidates(const Eigen::VectorXd& variation,
   }
   if (threshold < 0) {
     out.used_fallback = true;
-    threshold = std::min(1.0, quantile(v, options.fallback_quantile) / scale);
+    threshold = std::min(1.0, detail::quantile(v, options.fallback_quantile) / scale);
   }
   out.threshold = threshold;
   for (Eigen::Index i = 0; i < n; ++i) {

@@ -240,11 +240,9 @@ MfpsResult mfps_normals(const Points& points, const IndexMatrix& knn, const Eige
   const int nt = detail::thread_count(run.threads);
   std::vector<std::vector<double>> best_score(size_t(nt), std::vector<double>(size_t(nc), -1.0));
   std::vector<std::vector<int64_t>> best_slot(size_t(nt), std::vector<int64_t>(size_t(nc), -1));
-  if (run.progress) progress.stage("mfps selection", 0.9, 1.0);
-#pragma omp parallel for schedule(static) num_threads(nt)
-  for (int64_t j = 0; j < int64_t(n); ++j) {
-    auto& bs = best_score[size_t(omp_get_thread_num())];
-    auto& bp = best_slot[size_t(omp_get_thread_num())];
+  // Calls visit(c, slot, normal, D) for every candidate c in every planed patch centred at j,
+  // with D = E * exp(-r_c^2 / sigma_c^2) * eta(K) of Eq. 4.
+  auto for_each_score = [&](int64_t j, auto&& visit) {
     for (int s = 0; s < ns; ++s) {
       const size_t slot = size_t(j) * size_t(ns) + size_t(s);
       if (plane_e[slot] < 0) continue;
@@ -256,13 +254,21 @@ MfpsResult mfps_normals(const Points& points, const IndexMatrix& knn, const Eige
         if (c < 0) continue;
         const double r = (points.row(i).transpose() - plane_c[slot]).dot(nrm);
         const double si = sigma[i];
-        const double score = e * std::exp(-r * r / (si * si));
-        if (score > bs[size_t(c)] || (score == bs[size_t(c)] && int64_t(slot) < bp[size_t(c)])) {
-          bs[size_t(c)] = score;
-          bp[size_t(c)] = int64_t(slot);
-        }
+        visit(c, int64_t(slot), nrm, e * std::exp(-r * r / (si * si)));
       }
     }
+  };
+  if (run.progress) progress.stage("mfps selection", 0.9, 1.0);
+#pragma omp parallel for schedule(static) num_threads(nt)
+  for (int64_t j = 0; j < int64_t(n); ++j) {
+    auto& bs = best_score[size_t(omp_get_thread_num())];
+    auto& bp = best_slot[size_t(omp_get_thread_num())];
+    for_each_score(j, [&](int32_t c, int64_t slot, const Eigen::Vector3d&, double score) {
+      if (score > bs[size_t(c)] || (score == bs[size_t(c)] && slot < bp[size_t(c)])) {
+        bs[size_t(c)] = score;
+        bp[size_t(c)] = slot;
+      }
+    });
   }
   std::vector<double> best_all(size_t(nc), -1.0);
   std::vector<int64_t> slot_all(size_t(nc), -1);
@@ -285,30 +291,19 @@ MfpsResult mfps_normals(const Points& points, const IndexMatrix& knn, const Eige
 #pragma omp parallel for schedule(static) num_threads(nt)
     for (int64_t j = 0; j < int64_t(n); ++j) {
       auto& tt = tensor[size_t(omp_get_thread_num())];
-      for (int s = 0; s < ns; ++s) {
-        const size_t slot = size_t(j) * size_t(ns) + size_t(s);
-        if (plane_e[slot] < 0) continue;
-        const Eigen::Vector3d nrm = plane_n[slot].cast<double>();
-        const double e = plane_e[slot] * eta(scales[size_t(s)]);
-        for (int t = 0; t < scales[size_t(s)]; ++t) {
-          const int32_t i = knn(j, t);
-          const int32_t c = cand_id[size_t(i)];
-          if (c < 0 || !(best_all[size_t(c)] > 0)) continue;
-          const double r = (points.row(i).transpose() - plane_c[slot]).dot(nrm);
-          const double si = sigma[i];
-          const double rel = e * std::exp(-r * r / (si * si)) / best_all[size_t(c)];
-          const double w = std::pow(std::min(rel, 1.0), options.soft_gamma);
-          if (w < 1e-12) continue;
-          int64_t* a = &tt[size_t(c) * 6];
-          const double ws = w * fixed_scale;
-          a[0] += std::llround(ws * nrm[0] * nrm[0]);
-          a[1] += std::llround(ws * nrm[0] * nrm[1]);
-          a[2] += std::llround(ws * nrm[0] * nrm[2]);
-          a[3] += std::llround(ws * nrm[1] * nrm[1]);
-          a[4] += std::llround(ws * nrm[1] * nrm[2]);
-          a[5] += std::llround(ws * nrm[2] * nrm[2]);
-        }
-      }
+      for_each_score(j, [&](int32_t c, int64_t, const Eigen::Vector3d& nrm, double score) {
+        if (!(best_all[size_t(c)] > 0)) return;
+        const double w = std::pow(std::min(score / best_all[size_t(c)], 1.0), options.soft_gamma);
+        if (w < 1e-12) return;
+        int64_t* a = &tt[size_t(c) * 6];
+        const double ws = w * fixed_scale;
+        a[0] += std::llround(ws * nrm[0] * nrm[0]);
+        a[1] += std::llround(ws * nrm[0] * nrm[1]);
+        a[2] += std::llround(ws * nrm[0] * nrm[2]);
+        a[3] += std::llround(ws * nrm[1] * nrm[1]);
+        a[4] += std::llround(ws * nrm[1] * nrm[2]);
+        a[5] += std::llround(ws * nrm[2] * nrm[2]);
+      });
     }
   }
   for (Eigen::Index i = 0; i < n; ++i) {

@@ -1,6 +1,8 @@
 // Noise estimate and noise-driven scale choice (see scales.hpp).
 #include "nhnet/scales.hpp"
 
+#include "stats.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <vector>
@@ -9,12 +11,6 @@ namespace nhnet {
 
 
 namespace {
-double quantile(std::vector<double> v, double q) {
-  if (v.empty()) return 0;
-  const size_t k = size_t(std::clamp(q, 0.0, 1.0) * double(v.size() - 1));
-  std::nth_element(v.begin(), v.begin() + long(k), v.end());
-  return v[k];
-}
 
 // Quantile of the per-point residuals that measures the noise.
 constexpr double kNoiseQuantile = 0.25;
@@ -38,12 +34,12 @@ NoiseEstimate estimate_noise(const DistanceMatrix& sq_dist, const Eigen::VectorX
   if (n == 0 || col < 1) return out;
   std::vector<double> r(static_cast<size_t>(n));
   for (Eigen::Index i = 0; i < n; ++i) r[size_t(i)] = std::sqrt(double(sq_dist(i, col)));
-  out.spacing = quantile(std::move(r), 0.5) * std::sqrt(M_PI / double(col));
+  out.spacing = detail::quantile(std::move(r), 0.5) * std::sqrt(M_PI / double(col));
   std::vector<double> res;
   res.reserve(size_t(n));
   for (Eigen::Index i = 0; i < n; ++i)
     if (std::isfinite(residual_rms[i])) res.push_back(residual_rms[i]);
-  out.residual = quantile(std::move(res), kNoiseQuantile);
+  out.residual = detail::quantile(std::move(res), kNoiseQuantile);
   out.ratio = out.spacing > 0 ? out.residual / out.spacing : 0;
   return out;
 }
