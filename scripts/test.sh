@@ -7,16 +7,8 @@
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
-echo "== 1/4 Debian packages"
-bash scripts/install-deps.sh
-
-echo "== 2/4 configure and build (build/)"
-if [[ -f build/CMakeCache.txt ]]; then
-  cmake -S . -B build                      # keep the generator the build dir was made with
-else
-  cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release
-fi
-cmake --build build -j2
+echo "== 1-2/4 Debian packages, configure and build"
+bash scripts/build.sh
 
 failed=()
 
