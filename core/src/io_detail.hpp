@@ -139,6 +139,25 @@ void check_writable(const std::string& path, const Cloud& cloud);
 std::vector<const ExtraProperty*> writable_extras(const Cloud& cloud,
                                                   const std::vector<std::string>& reserved);
 
+/// One written per-point column.
+struct Column {
+  std::string name;
+  ScalarType type;
+  const double* values;  ///< element i at values[i * stride]
+  Eigen::Index stride;
+};
+
+/// Columns written for `cloud`, in output order: x y z (float when every coordinate is exact
+/// in float, else double), the normals as float under `normal_names` when present, then the
+/// extras whose names collide with none of these nor with `extra_reserved`.
+std::vector<Column> cloud_columns(const Cloud& cloud, const char* const (&normal_names)[3],
+                                  const std::vector<std::string>& extra_reserved = {});
+
+/// Appends the N rows of `cols` to `out` (ascii: space-separated text lines; binary: little
+/// endian), handing `out` to `sink` every 64 KiB and at the end.
+void write_rows(Sink& sink, const std::vector<Column>& cols, Eigen::Index rows, bool ascii,
+                std::string& out);
+
 // ---------------------------------------------------------------------------------------------
 // Format readers and writers (io_ply.cpp, io_pcd.cpp, io_xyz.cpp)
 

@@ -413,41 +413,17 @@ Cloud read_pcd(const FileBytes& file, std::vector<std::string>* warnings) {
 
 namespace {
 
-struct Column {
-  std::string name;
-  ScalarType type;
-  const double* values;
-  Eigen::Index stride;
-};
-
 /// PCD TYPE letter of a scalar type.
 char pcd_type(ScalarType t) {
   if (!is_integer(t)) return 'F';
   return (t == ScalarType::Int8 || t == ScalarType::Int16 || t == ScalarType::Int32) ? 'I' : 'U';
 }
 
-std::vector<Column> pcd_columns(const Cloud& cloud) {
-  std::vector<Column> cols;
-  const ScalarType coord = points_fit_float(cloud.points) ? ScalarType::Float32 : ScalarType::Float64;
-  const char* xyz[3] = {"x", "y", "z"};
-  for (int k = 0; k < 3; ++k) cols.push_back({xyz[k], coord, cloud.points.data() + k, 3});
-  std::vector<std::string> reserved = {"x", "y", "z", "_"};
-  if (cloud.has_normals()) {
-    const char* n[3] = {"normal_x", "normal_y", "normal_z"};
-    for (int k = 0; k < 3; ++k) {
-      cols.push_back({n[k], ScalarType::Float32, cloud.normals.data() + k, 3});
-      reserved.emplace_back(n[k]);
-    }
-  }
-  for (const ExtraProperty* e : writable_extras(cloud, reserved))
-    cols.push_back({e->name, e->type, e->values.data(), 1});
-  return cols;
-}
-
 }  // namespace
 
 void write_pcd(Sink& sink, const Cloud& cloud, bool ascii) {
-  const std::vector<Column> cols = pcd_columns(cloud);
+  const char* const normal_names[3] = {"normal_x", "normal_y", "normal_z"};
+  const std::vector<Column> cols = cloud_columns(cloud, normal_names, {"_"});
   std::string fields = "FIELDS", size = "SIZE", type = "TYPE", count = "COUNT";
   for (const Column& c : cols) {
     fields += " " + c.name;
@@ -460,23 +436,7 @@ void write_pcd(Sink& sink, const Cloud& cloud, bool ascii) {
                     fields + "\n" + size + "\n" + type + "\n" + count + "\nWIDTH " + n +
                     "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " + n + "\nDATA " +
                     (ascii ? "ascii" : "binary") + "\n";
-  for (Eigen::Index i = 0; i < cloud.size(); ++i) {
-    for (size_t c = 0; c < cols.size(); ++c) {
-      const double v = cols[c].values[i * cols[c].stride];
-      if (ascii) {
-        if (c > 0) out += ' ';
-        append_number(v, cols[c].type, out);
-      } else {
-        encode_scalar_le(v, cols[c].type, out);
-      }
-    }
-    if (ascii) out += '\n';
-    if (out.size() >= (size_t(1) << 16)) {
-      sink.write(out);
-      out.clear();
-    }
-  }
-  sink.write(out);
+  write_rows(sink, cols, cloud.size(), ascii, out);
 }
 
 }  // namespace nhnet::io_detail

@@ -440,61 +440,15 @@ Cloud read_ply(const FileBytes& file, std::vector<std::string>* warnings) {
 // ---------------------------------------------------------------------------------------------
 // Writer
 
-namespace {
-
-/// One written vertex column.
-struct Column {
-  std::string name;
-  ScalarType type;
-  const double* values;  ///< element i at values[i * stride]
-  Eigen::Index stride;
-};
-
-/// Columns of the vertex element, in output order.
-std::vector<Column> ply_columns(const Cloud& cloud) {
-  std::vector<Column> cols;
-  const ScalarType coord = points_fit_float(cloud.points) ? ScalarType::Float32 : ScalarType::Float64;
-  const char* xyz[3] = {"x", "y", "z"};
-  for (int k = 0; k < 3; ++k) cols.push_back({xyz[k], coord, cloud.points.data() + k, 3});
-  std::vector<std::string> reserved = {"x", "y", "z"};
-  if (cloud.has_normals()) {
-    const char* n[3] = {"nx", "ny", "nz"};
-    for (int k = 0; k < 3; ++k) {
-      cols.push_back({n[k], ScalarType::Float32, cloud.normals.data() + k, 3});
-      reserved.emplace_back(n[k]);
-    }
-  }
-  for (const ExtraProperty* e : writable_extras(cloud, reserved))
-    cols.push_back({e->name, e->type, e->values.data(), 1});
-  return cols;
-}
-
-}  // namespace
-
 void write_ply(Sink& sink, const Cloud& cloud, bool ascii) {
-  const std::vector<Column> cols = ply_columns(cloud);
+  const char* const normal_names[3] = {"nx", "ny", "nz"};
+  const std::vector<Column> cols = cloud_columns(cloud, normal_names);
   std::string out = "ply\nformat ";
   out += ascii ? "ascii" : "binary_little_endian";
   out += " 1.0\ncomment written by nhnet\nelement vertex " + std::to_string(cloud.size()) + "\n";
   for (const Column& c : cols) out += std::string("property ") + ply_type_name(c.type) + " " + c.name + "\n";
   out += "end_header\n";
-  for (Eigen::Index i = 0; i < cloud.size(); ++i) {
-    for (size_t c = 0; c < cols.size(); ++c) {
-      const double v = cols[c].values[i * cols[c].stride];
-      if (ascii) {
-        if (c > 0) out += ' ';
-        append_number(v, cols[c].type, out);
-      } else {
-        encode_scalar_le(v, cols[c].type, out);
-      }
-    }
-    if (ascii) out += '\n';
-    if (out.size() >= (size_t(1) << 16)) {
-      sink.write(out);
-      out.clear();
-    }
-  }
-  sink.write(out);
+  write_rows(sink, cols, cloud.size(), ascii, out);
 }
 
 }  // namespace nhnet::io_detail
