@@ -130,7 +130,9 @@ EstimateResult estimate_normals(const Points& points, const EstimateOptions& opt
   if (kneed > m && options.method == Method::Mfps)
     res.warnings.push_back("largest scale " + std::to_string(kneed) + " exceeds the " +
                            std::to_string(m) + " finite points; scales clamped");
-  if (kneed != knn.cols()) tree.knn_all(kneed, knn, nullptr, narrow(run, 0.2, 0.35));
+  // Rows are sorted by distance, so the probe's table serves any smaller size as its prefix.
+  const int kdepth = int(std::min<Eigen::Index>(kneed, m));
+  if (kdepth > knn.cols()) tree.knn_all(kdepth, knn, nullptr, narrow(run, 0.2, 0.35));
 
   const PcaResult pca = pca_normals(pts, knn, PcaOptions{res.k_used}, narrow(run, 0.35, 0.45));
   Normals out = pca.normals;
@@ -139,7 +141,7 @@ EstimateResult estimate_normals(const Points& points, const EstimateOptions& opt
     res.candidates = fd.count;
     BandwidthOptions bo;
     bo.k_patch = res.k_used;
-    bo.k_average = int(knn.cols());
+    bo.k_average = kdepth;
     const Eigen::VectorXd bw = residual_bandwidth(pts, knn, res.spacing, bo, narrow(run, 0.45, 0.55));
     MfpsOptions mo;
     mo.scales = choice.scales;
