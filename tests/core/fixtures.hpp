@@ -1,6 +1,7 @@
 // Analytic test fixtures with known normals: plane, sphere, cube (N x 3 points and normals).
 #pragma once
 
+#include "nhnet/neighbors.hpp"
 #include "nhnet/types.hpp"
 
 #include <cmath>
@@ -12,6 +13,13 @@ struct Fixture {
   nhnet::Points points;
   nhnet::Normals normals;
 };
+
+/// K nearest neighbours (self first) of every row of `points` (N x 3): an N x K table.
+inline nhnet::IndexMatrix knn_table(const nhnet::Points& points, int k) {
+  nhnet::IndexMatrix knn;
+  nhnet::Neighbors(points).knn_all(k, knn, nullptr);
+  return knn;
+}
 
 /// Uniform samples of the unit square in the plane z = 0, normal +z.
 inline Fixture plane(int n, unsigned seed) {

@@ -8,7 +8,6 @@
 #include "nhnet/feature_detection.hpp"
 #include "nhnet/metrics.hpp"
 #include "nhnet/mfps.hpp"
-#include "nhnet/neighbors.hpp"
 #include "nhnet/pca.hpp"
 
 #include <gtest/gtest.h>
@@ -97,9 +96,7 @@ TEST(Mfps, DeterministicAcrossThreadCounts) {
 
 TEST(Mfps, CandidatesOutsidePatchesKeepBaseNormals) {
   const auto f = fixtures::plane(500, 1);
-  Neighbors tree(f.points);
-  IndexMatrix knn;
-  tree.knn_all(30, knn, nullptr);
+  const IndexMatrix knn = fixtures::knn_table(f.points, 30);
   const PcaResult p = pca_normals(f.points, knn, PcaOptions{30});
   std::vector<uint8_t> cand(500, 0);
   MfpsOptions o;

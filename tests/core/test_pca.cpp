@@ -2,7 +2,6 @@
 #include "fixtures.hpp"
 
 #include "nhnet/metrics.hpp"
-#include "nhnet/neighbors.hpp"
 #include "nhnet/pca.hpp"
 
 #include <gtest/gtest.h>
@@ -14,9 +13,7 @@ using namespace nhnet;
 
 TEST(Pca, PlaneNormalsAreExact) {
   const auto f = fixtures::plane(2000, 7);
-  Neighbors tree(f.points);
-  IndexMatrix knn;
-  tree.knn_all(20, knn, nullptr);
+  const IndexMatrix knn = fixtures::knn_table(f.points, 20);
   const PcaResult r = pca_normals(f.points, knn, PcaOptions{20});
   const Eigen::VectorXd e = angle_errors_deg(r.normals, f.normals);
   // A noise-free plane has an exact least-squares plane: only round-off remains.
@@ -26,9 +23,7 @@ TEST(Pca, PlaneNormalsAreExact) {
 
 TEST(Pca, SphereNormalsUnderOneDegree) {
   const auto f = fixtures::sphere(20000, 11);
-  Neighbors tree(f.points);
-  IndexMatrix knn;
-  tree.knn_all(20, knn, nullptr);
+  const IndexMatrix knn = fixtures::knn_table(f.points, 20);
   const PcaResult r = pca_normals(f.points, knn, PcaOptions{20});
   const Eigen::VectorXd e = angle_errors_deg(r.normals, f.normals);
   // 20 neighbours of 20k points on a unit sphere span ~0.06 rad (3.4 degrees of arc). A symmetric
