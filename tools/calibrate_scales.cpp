@@ -1,17 +1,15 @@
 // Calibration of the noise-driven scale rule (scales.cpp): for each cloud with ground truth
-// (x y z nx ny nz text), prints the estimated noise ratio and the RMS angle error of PCA at a
-// range of k and of MFPS with the automatic and with fixed scales.
-// Build: see tools/README.md. Usage: calibrate_scales MODE FILE.gt.xyzn...
-#include "nhnet/bandwidth.hpp"
+// (x y z nx ny nz text), mode `pca` prints the noise ratio rho (as the pipeline computes it) and
+// the RMS angle error of PCA at a range of k (input of tools/fit_scale_table.py); any other
+// mode runs estimate_normals with the given overrides and prints its accuracy and time.
+// Usage: see tools/README.md.
 #include "nhnet/estimate.hpp"
 #include "nhnet/metrics.hpp"
 #include "nhnet/neighbors.hpp"
 #include "nhnet/pca.hpp"
 #include "nhnet/scales.hpp"
 
-#include <algorithm>
 #include <chrono>
-#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <string>
@@ -48,38 +46,17 @@ int main(int argc, char** argv) {
     std::string name = argv[a];
     name = name.substr(name.find_last_of('/') + 1);
     std::printf("%-40s n=%ld", name.c_str(), long(p.rows()));
-    if (mode == "probe") {
-      Neighbors tree(p);
-      IndexMatrix knn;
-      DistanceMatrix d2;
-      tree.knn_all(250, knn, &d2);
-      for (int k : {16, 35, 75, 150, 250}) {
-        const PcaResult r = pca_normals(p, knn, PcaOptions{k});
-        std::vector<double> res(r.residual_rms.data(), r.residual_rms.data() + r.residual_rms.size());
-        std::vector<double> rk(size_t(p.rows()));
-        for (Eigen::Index i = 0; i < p.rows(); ++i) rk[size_t(i)] = std::sqrt(double(d2(i, k - 1)));
-        std::nth_element(res.begin(), res.begin() + long(res.size() / 2), res.end());
-        std::nth_element(rk.begin(), rk.begin() + long(rk.size() / 2), rk.end());
-        const double l = rk[rk.size() / 2] * std::sqrt(M_PI / double(k - 1));
-        std::printf(" k%d: res/l=%.3f l=%.5f", k, res[res.size() / 2] / l, l);
-      }
-      std::printf("\n");
-    } else if (mode == "pca") {
+    if (mode == "pca") {
       Neighbors tree(p);
       IndexMatrix knn;
       DistanceMatrix d2;
       tree.knn_all(250, knn, &d2);
       {
-        const PcaResult r = pca_normals(p, knn, PcaOptions{75});
-        std::vector<double> res(r.residual_rms.data(), r.residual_rms.data() + r.residual_rms.size());
-        std::vector<double> rk(size_t(p.rows()));
-        for (Eigen::Index i = 0; i < p.rows(); ++i) rk[size_t(i)] = std::sqrt(double(d2(i, 74)));
-        std::nth_element(rk.begin(), rk.begin() + long(rk.size() / 2), rk.end());
-        const double l = rk[rk.size() / 2] * std::sqrt(M_PI / 74.0);
-        for (double q : {0.5, 0.25, 0.1}) {
-          std::nth_element(res.begin(), res.begin() + long(double(res.size()) * q), res.end());
-          std::printf(" rho75q%d=%.3f", int(q * 100), res[size_t(double(res.size()) * q)] / l);
-        }
+        // The noise ratio exactly as the pipeline computes it (scales.hpp).
+        const int kp = kNoiseProbeK;
+        const PcaResult probe = pca_normals(p, knn, PcaOptions{kp});
+        const DistanceMatrix d2p = d2.leftCols(kp);
+        std::printf(" rho=%.3f", estimate_noise(d2p, probe.residual_rms).ratio);
       }
       for (int k : {8, 12, 18, 25, 35, 50, 75, 112, 150, 200, 250}) {
         const PcaResult r = pca_normals(p, knn, PcaOptions{k});

@@ -15,11 +15,12 @@ namespace {
 // Quantile of the per-point residuals that measures the noise.
 constexpr double kNoiseQuantile = 0.25;
 
-// rho -> PCA k, fitted on the training split only (tools/calibrate_scales.cpp pca on 10 training
-// models x 7 noise levels 0..1.2 % + 4 density variants, 50k points each; knots placed by
-// coordinate search minimising the mean RMS error; smallest k raised from 8 to 12 for safety).
-// Mean RMS over those 74 clouds: this rule 13.7 deg, best fixed k (112) 15.7, per-cloud oracle
-// 13.3. See the note on issue 2.
+// rho -> PCA k, fitted on the training split only: `tools/calibrate_scales pca` on 10 training
+// models x 7 noise levels 0..1.2 % + 4 density variants (50k points each), then
+// `tools/fit_scale_table.py` (coordinate search over the knots' k minimising the mean RMS; the
+// commands are in tools/README.md). The fit gives k = 8 and 25 at the first and third knots; we
+// ship 12 and 30 (too small a k costs far more than too large). Mean RMS over those 74 clouds:
+// this table 13.76 deg, the fit 13.74, best fixed k (112) 15.70, per-cloud oracle 13.34.
 struct Knot {
   double rho;
   double k;
