@@ -139,6 +139,22 @@ void check_writable(const std::string& path, const Cloud& cloud);
 std::vector<const ExtraProperty*> writable_extras(const Cloud& cloud,
                                                   const std::vector<std::string>& reserved);
 
+/// Where a read per-point value goes: a coordinate or normal column, an extra, or nowhere.
+struct Slot {
+  enum Kind { Coord, Normal, Extra, Skip } kind = Skip;
+  int index = 0;  ///< coordinate / normal column, or index into Cloud::extras
+};
+
+/// Stores one value of row `row` where its slot says.
+inline void store(Cloud& cloud, const Slot& slot, Eigen::Index row, double value) {
+  switch (slot.kind) {
+    case Slot::Coord: cloud.points(row, slot.index) = value; break;
+    case Slot::Normal: cloud.normals(row, slot.index) = value; break;
+    case Slot::Extra: cloud.extras[size_t(slot.index)].values[size_t(row)] = value; break;
+    case Slot::Skip: break;
+  }
+}
+
 /// One written per-point column.
 struct Column {
   std::string name;

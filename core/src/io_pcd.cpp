@@ -191,12 +191,6 @@ PcdHeader parse_header(const FileBytes& file) {
   return header;
 }
 
-/// Where a field's values go.
-struct Slot {
-  enum Kind { Coord, Normal, Extra, Skip } kind = Skip;
-  int index = 0;
-};
-
 int find_field(const PcdHeader& h, const char* name) {
   for (size_t i = 0; i < h.fields.size(); ++i)
     if (h.fields[i].name == name) return int(i);
@@ -241,15 +235,6 @@ std::vector<Slot> plan_fields(const FileBytes& file, const PcdHeader& h, Cloud& 
     }
   }
   return slots;
-}
-
-inline void store(Cloud& cloud, const Slot& slot, Eigen::Index row, double value) {
-  switch (slot.kind) {
-    case Slot::Coord: cloud.points(row, slot.index) = value; break;
-    case Slot::Normal: cloud.normals(row, slot.index) = value; break;
-    case Slot::Extra: cloud.extras[size_t(slot.index)].values[size_t(row)] = value; break;
-    case Slot::Skip: break;
-  }
 }
 
 /// Reads DATA ascii: one point per non-blank line, exactly point_values tokens. With `slots`

@@ -223,12 +223,6 @@ std::string check_declared_sizes(const FileBytes& file, const Header& header) {
   return "";
 }
 
-/// Where a vertex property goes.
-struct Slot {
-  enum Kind { Coord, Normal, Extra, Skip } kind = Skip;
-  int index = 0;  ///< coordinate column, or index into Cloud::extras
-};
-
 /// Index of the property named `name` in `e`, or -1.
 int find_property(const Element& e, const char* name) {
   for (size_t i = 0; i < e.props.size(); ++i)
@@ -268,16 +262,6 @@ std::vector<Slot> plan_vertex(const FileBytes& file, const Element& e, Cloud& cl
     }
   }
   return slots;
-}
-
-/// Stores one vertex value where its slot says.
-inline void store(Cloud& cloud, const Slot& slot, Eigen::Index row, double value) {
-  switch (slot.kind) {
-    case Slot::Coord: cloud.points(row, slot.index) = value; break;
-    case Slot::Normal: cloud.normals(row, slot.index) = value; break;
-    case Slot::Extra: cloud.extras[size_t(slot.index)].values[size_t(row)] = value; break;
-    case Slot::Skip: break;
-  }
 }
 
 /// "vertex 13 of 1000"
