@@ -10,6 +10,7 @@
 #include <pybind11/pybind11.h>
 
 #include <chrono>
+#include <cstring>
 #include <string>
 
 namespace nhnet::python {
@@ -21,8 +22,18 @@ namespace py = pybind11;
 /// naming `what` and the shape received.
 Points to_points(const py::handle& array, const char* what);
 
-/// An (N, 3) row-major double matrix as a new numpy float64 array (a copy).
-py::array_t<double> to_numpy(const Points& m);
+/// A row-major Eigen matrix (Points, Normals, IndexMatrix, a float descriptor matrix, ...) as a
+/// new 2-D numpy array of the same scalar type, or an Eigen column vector as a 1-D array (copies).
+template <class Matrix>
+py::array_t<typename Matrix::Scalar> to_numpy(const Matrix& m) {
+  using Scalar = typename Matrix::Scalar;
+  static_assert(Matrix::IsRowMajor || Matrix::ColsAtCompileTime == 1, "row-major only");
+  py::array_t<Scalar> a = Matrix::ColsAtCompileTime == 1
+                              ? py::array_t<Scalar>(py::ssize_t(m.rows()))
+                              : py::array_t<Scalar>({py::ssize_t(m.rows()), py::ssize_t(m.cols())});
+  if (m.size() > 0) std::memcpy(a.mutable_data(), m.data(), sizeof(Scalar) * size_t(m.size()));
+  return a;
+}
 
 /// Bridges the core's progress callback to Python while the GIL is released: at most every
 /// 50 ms it takes the GIL, checks for pending signals (Ctrl-C) and calls the user's

@@ -33,12 +33,6 @@ Points to_points(const py::handle& array, const char* what) {
   return p;
 }
 
-py::array_t<double> to_numpy(const Points& m) {
-  py::array_t<double> a({py::ssize_t(m.rows()), py::ssize_t(3)});
-  if (m.size() > 0) std::memcpy(a.mutable_data(), m.data(), sizeof(double) * size_t(m.size()));
-  return a;
-}
-
 // ---------------------------------------------------------------------------------------------
 // Progress and cancellation
 

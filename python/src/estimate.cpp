@@ -17,6 +17,7 @@ namespace {
 struct PyEstimateResult {
   py::array_t<double> normals;
   py::array_t<bool> valid;
+  py::array_t<double> curvature;
   int64_t failed = 0;
   int64_t candidates = 0;
   double noise_ratio = 0;
@@ -57,6 +58,7 @@ PyEstimateResult estimate(const py::handle& points, const std::string& method, i
   out.valid = py::array_t<bool>(py::ssize_t(r.valid.size()));
   bool* v = out.valid.mutable_data();
   for (size_t i = 0; i < r.valid.size(); ++i) v[i] = r.valid[i] != 0;
+  out.curvature = to_numpy(r.curvature);
   out.failed = r.failed;
   out.candidates = r.candidates;
   out.noise_ratio = r.noise_ratio;
@@ -113,6 +115,9 @@ void register_estimate(py::module_& m) {
                     "(N, 3) float64 unit normals; NaN rows for failed points.")
       .def_readonly("valid", &PyEstimateResult::valid,
                     "(N,) bool: True where a normal was computed.")
+      .def_readonly("curvature", &PyEstimateResult::curvature,
+                    "(N,) float64 surface variation lambda_min / sum(lambda) of each point's "
+                    "PCA neighbourhood (PCL's 'curvature'); NaN where failed.")
       .def_readonly("failed", &PyEstimateResult::failed, "Number of False entries in `valid`.")
       .def_readonly("candidates", &PyEstimateResult::candidates,
                     "Points classified as candidates near sharp features (MFPS only).")
