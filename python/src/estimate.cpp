@@ -8,25 +8,26 @@
 #include <pybind11/stl.h>
 
 #include <optional>
+#include <tuple>
 
 namespace nhnet::python {
 
 namespace {
 
-/// EstimateResult with its arrays converted once to numpy.
+/// EstimateResult with its arrays converted once to numpy (the core's copies are dropped).
 struct PyEstimateResult {
+  EstimateResult core;
   py::array_t<double> normals;
   py::array_t<bool> valid;
   py::array_t<double> curvature;
-  int64_t failed = 0;
-  int64_t candidates = 0;
-  double noise_ratio = 0;
-  double spacing = 0;
-  int k_used = 0;
-  std::vector<int> scales_used;
-  std::vector<std::string> warnings;
   int64_t flipped = 0;
 };
+
+/// Read-only property getter of one scalar / list field of the core's EstimateResult.
+template <class T>
+auto core_field(T EstimateResult::*member) {
+  return [member](const PyEstimateResult& r) { return r.core.*member; };
+}
 
 PyEstimateResult estimate(const py::handle& points, const std::string& method, int k,
                           std::optional<std::vector<int>> scales, int threads, uint64_t seed,
@@ -48,24 +49,21 @@ PyEstimateResult estimate(const py::handle& points, const std::string& method, i
   }
 
   PyEstimateResult out;
-  EstimateResult r = run_released(progress, [&](ProgressCallback cb) {
+  out.core = run_released(progress, [&](ProgressCallback cb) {
     opt.run.progress = std::move(cb);
     EstimateResult res = estimate_normals(pts, opt);
     if (reference.rows() > 0) out.flipped = orient_like(res.normals, reference);
     return res;
   });
+  EstimateResult& r = out.core;
   out.normals = to_numpy(r.normals);
   out.valid = py::array_t<bool>(py::ssize_t(r.valid.size()));
   bool* v = out.valid.mutable_data();
   for (size_t i = 0; i < r.valid.size(); ++i) v[i] = r.valid[i] != 0;
   out.curvature = to_numpy(r.curvature);
-  out.failed = r.failed;
-  out.candidates = r.candidates;
-  out.noise_ratio = r.noise_ratio;
-  out.spacing = r.spacing;
-  out.k_used = r.k_used;
-  out.scales_used = r.scales_used;
-  out.warnings = r.warnings;
+  r.normals.resize(0, 3);
+  r.valid.clear();
+  r.curvature.resize(0);
   return out;
 }
 
@@ -118,60 +116,62 @@ void register_estimate(py::module_& m) {
       .def_readonly("curvature", &PyEstimateResult::curvature,
                     "(N,) float64 surface variation lambda_min / sum(lambda) of each point's "
                     "PCA neighbourhood (PCL's 'curvature'); NaN where failed.")
-      .def_readonly("failed", &PyEstimateResult::failed, "Number of False entries in `valid`.")
-      .def_readonly("candidates", &PyEstimateResult::candidates,
-                    "Points classified as candidates near sharp features (MFPS only).")
-      .def_readonly("noise_ratio", &PyEstimateResult::noise_ratio,
-                    "Estimated noise level: residual bandwidth / average point spacing.")
-      .def_readonly("spacing", &PyEstimateResult::spacing,
-                    "Average distance to the nearest other point, input units.")
-      .def_readonly("k_used", &PyEstimateResult::k_used, "PCA neighbourhood size used.")
-      .def_readonly("scales_used", &PyEstimateResult::scales_used,
-                    "MFPS patch sizes used (empty for PCA).")
-      .def_readonly("warnings", &PyEstimateResult::warnings,
-                    "Non-fatal notes (non-finite points skipped, clamped sizes, ...).")
+      .def_property_readonly("failed", core_field(&EstimateResult::failed),
+                             "Number of False entries in `valid`.")
+      .def_property_readonly("candidates", core_field(&EstimateResult::candidates),
+                             "Points classified as candidates near sharp features (MFPS only).")
+      .def_property_readonly("noise_ratio", core_field(&EstimateResult::noise_ratio),
+                             "Estimated noise level: residual bandwidth / average spacing.")
+      .def_property_readonly("spacing", core_field(&EstimateResult::spacing),
+                             "Average distance to the nearest other point, input units.")
+      .def_property_readonly("k_used", core_field(&EstimateResult::k_used),
+                             "PCA neighbourhood size used.")
+      .def_property_readonly("scales_used", core_field(&EstimateResult::scales_used),
+                             "MFPS patch sizes used (empty for PCA).")
+      .def_property_readonly("warnings", core_field(&EstimateResult::warnings),
+                             "Non-fatal notes (non-finite points skipped, clamped sizes, ...).")
       .def_readonly("flipped", &PyEstimateResult::flipped,
                     "Normals flipped to agree with `orient` (0 without it).")
       .def("__repr__", [](const PyEstimateResult& r) {
         return "<nhnet.EstimateResult points=" + std::to_string(r.normals.shape(0)) +
-               " failed=" + std::to_string(r.failed) + " k_used=" + std::to_string(r.k_used) +
-               " noise_ratio=" + std::to_string(r.noise_ratio) + ">";
+               " failed=" + std::to_string(r.core.failed) +
+               " k_used=" + std::to_string(r.core.k_used) +
+               " noise_ratio=" + std::to_string(r.core.noise_ratio) + ">";
       });
 
   const std::string estimate_doc =
-      std::string("estimate(points, method='mfps', k=0, scales=None, threads=0, seed=1, "
-                  "orient=None, progress=None) -> EstimateResult\n\n"
-                  "Estimates unit normals and returns the full result (normals, valid mask, "
+      std::string("Estimates unit normals and returns the full result (normals, valid mask, "
                   "failed count, noise ratio, sizes used, warnings).\n") +
       kArgsDoc;
-  m.def("estimate", &estimate, estimate_doc.c_str(), py::arg("points"), py::kw_only(),
-        py::arg("method") = "mfps", py::arg("k") = 0, py::arg("scales") = py::none(),
-        py::arg("threads") = 0, py::arg("seed") = uint64_t(1), py::arg("orient") = py::none(),
-        py::arg("progress") = py::none());
+  // One argument list for estimate() and estimate_normals().
+  const auto args = std::make_tuple(
+      py::arg("points"), py::kw_only(), py::arg("method") = "mfps", py::arg("k") = 0,
+      py::arg("scales") = py::none(), py::arg("threads") = 0, py::arg("seed") = uint64_t(1),
+      py::arg("orient") = py::none(), py::arg("progress") = py::none());
+  std::apply([&](const auto&... a) { m.def("estimate", &estimate, estimate_doc.c_str(), a...); },
+             args);
 
   const std::string normals_doc =
-      std::string("estimate_normals(points, method='mfps', k=0, scales=None, threads=0, seed=1, "
-                  "orient=None, progress=None) -> numpy.ndarray\n\n"
-                  "Estimates unit normals: returns an (N, 3) float64 array, NaN rows for points "
+      std::string("Estimates unit normals: returns an (N, 3) float64 array, NaN rows for points "
                   "that failed. The core's warnings are issued as Python RuntimeWarnings; use "
                   "nhnet.estimate() for the valid mask, the noise ratio and the sizes used.\n") +
       kArgsDoc;
-  m.def(
-      "estimate_normals",
-      [](const py::handle& points, const std::string& method, int k,
-         std::optional<std::vector<int>> scales, int threads, uint64_t seed,
-         const py::object& orient, const py::object& progress) {
-        PyEstimateResult r = estimate(points, method, k, std::move(scales), threads, seed, orient,
-                                      progress);
-        for (const std::string& w : r.warnings)
-          if (PyErr_WarnEx(PyExc_RuntimeWarning, ("nhnet: " + w).c_str(), 1) != 0)
-            throw py::error_already_set();
-        return r.normals;
+  const auto estimate_normals = [](const py::handle& points, const std::string& method, int k,
+                                   std::optional<std::vector<int>> scales, int threads,
+                                   uint64_t seed, const py::object& orient,
+                                   const py::object& progress) {
+    PyEstimateResult r =
+        estimate(points, method, k, std::move(scales), threads, seed, orient, progress);
+    for (const std::string& w : r.core.warnings)
+      if (PyErr_WarnEx(PyExc_RuntimeWarning, ("nhnet: " + w).c_str(), 1) != 0)
+        throw py::error_already_set();
+    return r.normals;
+  };
+  std::apply(
+      [&](const auto&... a) {
+        m.def("estimate_normals", estimate_normals, normals_doc.c_str(), a...);
       },
-      normals_doc.c_str(), py::arg("points"), py::kw_only(), py::arg("method") = "mfps",
-      py::arg("k") = 0, py::arg("scales") = py::none(), py::arg("threads") = 0,
-      py::arg("seed") = uint64_t(1), py::arg("orient") = py::none(),
-      py::arg("progress") = py::none());
+      args);
 }
 
 }  // namespace nhnet::python

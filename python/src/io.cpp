@@ -147,7 +147,6 @@ void register_io(py::module_& m) {
       });
 
   m.def("read", &read,
-        "read(path, format=None) -> Cloud\n\n"
         "Reads a PLY (ascii / binary), PCD (ascii / binary / binary_compressed) or XYZ text "
         "file. `format` ('ply', 'pcd', 'xyz') overrides the detection by content and "
         "extension. Non-finite coordinates are kept as they are. Non-fatal notes (e.g. a "
@@ -156,7 +155,6 @@ void register_io(py::module_& m) {
         "problem: missing, unreadable, empty, truncated, malformed (with the line or byte).",
         py::arg("path"), py::arg("format") = py::none());
   m.def("write", &write,
-        "write(path, points, normals=None, *, extras=None, ascii=False, format=None)\n\n"
         "Writes a cloud: `points` (N, 3) and optional `normals` (N, 3) as arrays, or a "
         "nhnet.Cloud as `points` (its normals and extras are used unless given). `extras` "
         "maps property names to (N,) arrays (PLY / PCD only; their dtype is the stored type). "

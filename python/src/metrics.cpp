@@ -25,7 +25,6 @@ void register_metrics(py::module_& m) {
         const Eigen::VectorXd err = angle_errors_deg(e, g);
         return py::array_t<double>(py::ssize_t(err.size()), err.data());
       },
-      "angle_errors(est, gt) -> numpy.ndarray\n\n"
       "Per-point unoriented angle error in degrees, acos(min(1, |est . gt|)), between two "
       "(N, 3) normal arrays (rows need not be unit length); NaN where either normal is "
       "non-finite or zero.",
@@ -45,7 +44,6 @@ void register_metrics(py::module_& m) {
         d["invalid"] = s.invalid;
         return d;
       },
-      "metrics(est, gt) -> dict\n\n"
       "Accuracy of estimated normals against ground truth (both (N, 3), same points in the same "
       "order), as `nhnet-cli eval` reports it: {'mean', 'rms'} unoriented angle error in "
       "degrees, {'pgp5', 'pgp10'} share of points under 5 / 10 degrees in [0, 1], 'count' "
