@@ -3,6 +3,7 @@
 // adapters over the core: copy arrays in, call the core with the GIL released, copy results out.
 #pragma once
 
+#include "nhnet/orient.hpp"
 #include "nhnet/progress.hpp"
 #include "nhnet/types.hpp"
 
@@ -33,6 +34,13 @@ py::array_t<typename Matrix::Scalar> to_numpy(const Matrix& m) {
                               : py::array_t<Scalar>({py::ssize_t(m.rows()), py::ssize_t(m.cols())});
   if (m.size() > 0) std::memcpy(a.mutable_data(), m.data(), sizeof(Scalar) * size_t(m.size()));
   return a;
+}
+
+/// Read-only property getter of one field of a core result held as `core` by a binding's
+/// result class: def_property_readonly("failed", core_field<PyEstimateResult>(&EstimateResult::failed)).
+template <class Wrapper, class Core, class T>
+auto core_field(T Core::*member) {
+  return [member](const Wrapper& r) { return r.core.*member; };
 }
 
 /// Bridges the core's progress callback to Python while the GIL is released: at most every
@@ -71,9 +79,22 @@ auto run_released(const py::object& progress, Fn&& fn) {
   }
 }
 
+/// The orientation asked for by Python arguments. `orient`: None / 'none' / 'keep' / 'viewpoint'
+/// / 'mst', or an (N, 3) array of reference normals (= 'keep' with them); `reference`: the
+/// reference normals of 'keep' (when `orient` is a string); `viewpoint`: 3 numbers, 'viewpoint'
+/// only (default the origin); `k`: 'mst' neighbours. Throws InvalidOptions for contradictions.
+struct OrientRequest {
+  OrientOptions options;
+  Normals reference;
+};
+OrientRequest orient_request(const py::object& orient, const py::object& reference,
+                             const py::object& viewpoint, int k, Eigen::Index n);
+
 void register_errors(py::module_& m);
 void register_estimate(py::module_& m);
 void register_io(py::module_& m);
 void register_metrics(py::module_& m);
+void register_orient(py::module_& m);
+void register_denoise(py::module_& m);
 
 }  // namespace nhnet::python

@@ -20,18 +20,13 @@ struct PyEstimateResult {
   py::array_t<double> normals;
   py::array_t<bool> valid;
   py::array_t<double> curvature;
-  int64_t flipped = 0;
+  OrientResult orient;  ///< what orient= did (zeros without it)
 };
-
-/// Read-only property getter of one scalar / list field of the core's EstimateResult.
-template <class T>
-auto core_field(T EstimateResult::*member) {
-  return [member](const PyEstimateResult& r) { return r.core.*member; };
-}
 
 PyEstimateResult estimate(const py::handle& points, const std::string& method, int k,
                           std::optional<std::vector<int>> scales, int threads, uint64_t seed,
-                          const py::object& orient, const py::object& progress) {
+                          const py::object& orient, const py::object& viewpoint,
+                          const py::object& progress) {
   EstimateOptions opt;
   opt.method = method_from_string(method);
   opt.k = k;
@@ -39,20 +34,18 @@ PyEstimateResult estimate(const py::handle& points, const std::string& method, i
   opt.run.threads = threads;
   opt.seed = seed;
   const Points pts = to_points(points, "points");
-  Normals reference;
-  if (!orient.is_none()) {
-    reference = to_points(orient, "orient (reference normals)");
-    if (reference.rows() != pts.rows())
-      throw InvalidOptions("orient must have one reference normal per point: got " +
-                           std::to_string(reference.rows()) + " for " +
-                           std::to_string(pts.rows()) + " points");
-  }
+  OrientRequest req =
+      orient_request(orient, py::none(), viewpoint, OrientOptions().k, pts.rows());
+  req.options.run.threads = threads;
 
   PyEstimateResult out;
   out.core = run_released(progress, [&](ProgressCallback cb) {
     opt.run.progress = std::move(cb);
     EstimateResult res = estimate_normals(pts, opt);
-    if (reference.rows() > 0) out.flipped = orient_like(res.normals, reference);
+    if (req.options.mode != OrientMode::None) {
+      req.options.run.progress = opt.run.progress;
+      out.orient = orient_normals(pts, res.normals, req.options, req.reference);
+    }
     return res;
   });
   EstimateResult& r = out.core;
@@ -86,10 +79,13 @@ threads : int
 seed : int
     Seed of MFPS's random plane samples; results are deterministic for a seed whatever the
     thread count (default 1, the same as nhnet-cli).
-orient : array_like, shape (N, 3), optional
-    Reference normals: each result normal is flipped to agree with its reference (what
-    ``nhnet-cli estimate --orient keep`` does with the input's normals). None (default) leaves
-    the normals unoriented (sign arbitrary).
+orient : None, 'mst', 'viewpoint' or array_like (N, 3)
+    None (default): unoriented normals (sign arbitrary). 'mst': consistent signs propagated
+    over the k-NN graph (see nhnet.orient). 'viewpoint': every normal turned towards
+    `viewpoint`. An (N, 3) array: reference normals each result normal is flipped to agree
+    with (what ``nhnet-cli estimate --orient keep`` does with the input's normals).
+viewpoint : sequence of 3 numbers, optional
+    Sensor position for orient='viewpoint' (default the origin).
 progress : callable, optional
     ``progress(fraction: float, stage: str)`` called about every 50 ms; return False (or raise)
     to cancel: False raises nhnet.Cancelled, an exception is re-raised as it is.
@@ -116,22 +112,26 @@ void register_estimate(py::module_& m) {
       .def_readonly("curvature", &PyEstimateResult::curvature,
                     "(N,) float64 surface variation lambda_min / sum(lambda) of each point's "
                     "PCA neighbourhood (PCL's 'curvature'); NaN where failed.")
-      .def_property_readonly("failed", core_field(&EstimateResult::failed),
+      .def_property_readonly("failed", core_field<PyEstimateResult>(&EstimateResult::failed),
                              "Number of False entries in `valid`.")
-      .def_property_readonly("candidates", core_field(&EstimateResult::candidates),
+      .def_property_readonly("candidates", core_field<PyEstimateResult>(&EstimateResult::candidates),
                              "Points classified as candidates near sharp features (MFPS only).")
-      .def_property_readonly("noise_ratio", core_field(&EstimateResult::noise_ratio),
+      .def_property_readonly("noise_ratio", core_field<PyEstimateResult>(&EstimateResult::noise_ratio),
                              "Estimated noise level: residual bandwidth / average spacing.")
-      .def_property_readonly("spacing", core_field(&EstimateResult::spacing),
+      .def_property_readonly("spacing", core_field<PyEstimateResult>(&EstimateResult::spacing),
                              "Average distance to the nearest other point, input units.")
-      .def_property_readonly("k_used", core_field(&EstimateResult::k_used),
+      .def_property_readonly("k_used", core_field<PyEstimateResult>(&EstimateResult::k_used),
                              "PCA neighbourhood size used.")
-      .def_property_readonly("scales_used", core_field(&EstimateResult::scales_used),
+      .def_property_readonly("scales_used", core_field<PyEstimateResult>(&EstimateResult::scales_used),
                              "MFPS patch sizes used (empty for PCA).")
-      .def_property_readonly("warnings", core_field(&EstimateResult::warnings),
+      .def_property_readonly("warnings", core_field<PyEstimateResult>(&EstimateResult::warnings),
                              "Non-fatal notes (non-finite points skipped, clamped sizes, ...).")
-      .def_readonly("flipped", &PyEstimateResult::flipped,
-                    "Normals flipped to agree with `orient` (0 without it).")
+      .def_property_readonly(
+          "flipped", [](const PyEstimateResult& r) { return r.orient.flipped; },
+          "Normals flipped by `orient` (0 without it).")
+      .def_property_readonly(
+          "unoriented", [](const PyEstimateResult& r) { return r.orient.unoriented; },
+          "Valid normals whose sign `orient` could not decide (0 without it).")
       .def("__repr__", [](const PyEstimateResult& r) {
         return "<nhnet.EstimateResult points=" + std::to_string(r.normals.shape(0)) +
                " failed=" + std::to_string(r.core.failed) +
@@ -147,7 +147,8 @@ void register_estimate(py::module_& m) {
   const auto args = std::make_tuple(
       py::arg("points"), py::kw_only(), py::arg("method") = "mfps", py::arg("k") = 0,
       py::arg("scales") = py::none(), py::arg("threads") = 0, py::arg("seed") = uint64_t(1),
-      py::arg("orient") = py::none(), py::arg("progress") = py::none());
+      py::arg("orient") = py::none(), py::arg("viewpoint") = py::none(),
+      py::arg("progress") = py::none());
   std::apply([&](const auto&... a) { m.def("estimate", &estimate, estimate_doc.c_str(), a...); },
              args);
 
@@ -159,9 +160,9 @@ void register_estimate(py::module_& m) {
   const auto estimate_normals = [](const py::handle& points, const std::string& method, int k,
                                    std::optional<std::vector<int>> scales, int threads,
                                    uint64_t seed, const py::object& orient,
-                                   const py::object& progress) {
-    PyEstimateResult r =
-        estimate(points, method, k, std::move(scales), threads, seed, orient, progress);
+                                   const py::object& viewpoint, const py::object& progress) {
+    PyEstimateResult r = estimate(points, method, k, std::move(scales), threads, seed, orient,
+                                  viewpoint, progress);
     for (const std::string& w : r.core.warnings)
       if (PyErr_WarnEx(PyExc_RuntimeWarning, ("nhnet: " + w).c_str(), 1) != 0)
         throw py::error_already_set();

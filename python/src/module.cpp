@@ -11,4 +11,6 @@ PYBIND11_MODULE(_nhnet, m) {
   nhnet::python::register_estimate(m);
   nhnet::python::register_io(m);
   nhnet::python::register_metrics(m);
+  nhnet::python::register_orient(m);
+  nhnet::python::register_denoise(m);
 }
