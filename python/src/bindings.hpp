@@ -12,7 +12,9 @@
 
 #include <chrono>
 #include <cstring>
+#include <cstdint>
 #include <string>
+#include <vector>
 
 namespace nhnet::python {
 
@@ -35,6 +37,9 @@ py::array_t<typename Matrix::Scalar> to_numpy(const Matrix& m) {
   if (m.size() > 0) std::memcpy(a.mutable_data(), m.data(), sizeof(Scalar) * size_t(m.size()));
   return a;
 }
+
+/// The core's per-point 0/1 flags (EstimateResult::valid) as a 1-D numpy bool array.
+py::array_t<bool> to_numpy_mask(const std::vector<uint8_t>& flags);
 
 /// Read-only property getter of one field of a core result held as `core` by a binding's
 /// result class: def_property_readonly("failed", core_field<PyEstimateResult>(&EstimateResult::failed)).

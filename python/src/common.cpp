@@ -33,6 +33,13 @@ Points to_points(const py::handle& array, const char* what) {
   return p;
 }
 
+py::array_t<bool> to_numpy_mask(const std::vector<uint8_t>& flags) {
+  py::array_t<bool> a(py::ssize_t(flags.size()));
+  bool* v = a.mutable_data();
+  for (size_t i = 0; i < flags.size(); ++i) v[i] = flags[i] != 0;
+  return a;
+}
+
 // ---------------------------------------------------------------------------------------------
 // Progress and cancellation
 

@@ -50,9 +50,7 @@ PyEstimateResult estimate(const py::handle& points, const std::string& method, i
   });
   EstimateResult& r = out.core;
   out.normals = to_numpy(r.normals);
-  out.valid = py::array_t<bool>(py::ssize_t(r.valid.size()));
-  bool* v = out.valid.mutable_data();
-  for (size_t i = 0; i < r.valid.size(); ++i) v[i] = r.valid[i] != 0;
+  out.valid = to_numpy_mask(r.valid);
   out.curvature = to_numpy(r.curvature);
   r.normals.resize(0, 3);
   r.valid.clear();
