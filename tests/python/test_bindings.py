@@ -292,8 +292,8 @@ def test_ctrl_c_interrupts_estimation():
     script = (
         "import sys, numpy as np, nhnet\n"
         "p = np.random.default_rng(0).normal(size=(400000, 3))\n"
-        "print('start', flush=True)\n"
         "try:\n"
+        "    print('start', flush=True)\n"
         "    nhnet.estimate_normals(p, threads=1)\n"
         "except KeyboardInterrupt:\n"
         "    print('interrupted', flush=True); sys.exit(42)\n"
