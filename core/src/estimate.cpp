@@ -152,7 +152,8 @@ EstimateResult estimate_normals(const Points& points, const EstimateOptions& opt
     mo.score_subset = options.mfps_score_subset;
     mo.rescore = options.mfps_rescore;
     mo.refine_iterations = options.mfps_refine_iterations;
-    mo.soft_gamma = options.mfps_soft_gamma;
+    mo.point_sigma_factor = options.mfps_point_sigma_factor;
+    mo.posterior_beta = options.mfps_posterior_beta;
     const MfpsResult mr = mfps_normals(pts, knn, 2.0 * bw, fd.candidate, pca.normals, mo,
                                        narrow(run, 0.55, 1.0));
     res.scales_used = mo.scales;

@@ -38,9 +38,11 @@ struct EstimateOptions {
   int mfps_score_subset = 48;
   int mfps_rescore = 3;
   int mfps_refine_iterations = 3;
-  /// MFPS soft selection exponent (0 = the paper's argmax; see mfps.hpp). 0.5 measured best for
-  /// RMS on held-in data with no loss in mean error.
-  double mfps_soft_gamma = 0.5;
+  /// MFPS selection (see mfps.hpp): width factor of the point term of Eq. 4, and the two-face
+  /// posterior exponent (0 = the paper's argmax). Defaults measured on the training split
+  /// (tools/README.md).
+  double mfps_point_sigma_factor = 3;
+  double mfps_posterior_beta = 12;
   /// Threads (0 = all cores) and progress/cancel callback.
   RunContext run;
 };
