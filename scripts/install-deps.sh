@@ -21,6 +21,8 @@ PKGS=(
   # MeshLab plugin: the stock MeshLab, Qt5 and GLEW headers it compiles against, dpkg-dev to
   # unpack MeshLab's source package (its headers), xvfb/xauth to run meshlabserver headless
   meshlab qtbase5-dev libqt5opengl5-dev libglew-dev dpkg-dev xvfb xauth
+  # the plugin's README screenshots (plugins/meshlab/screenshots.sh): clicks and screen grabs
+  xdotool imagemagick
 )
 
 SUDO=""

@@ -3,6 +3,7 @@
 // only written to after the core call succeeded, so a failed run leaves it untouched.
 #include "filter_nhnet.h"
 
+#include "nhnet/denoise.hpp"
 #include "nhnet/errors.hpp"
 #include "nhnet/estimate.hpp"
 
@@ -14,12 +15,16 @@
 namespace {
 
 // The estimators offered, in menu order (the first is the default). A method the core gains
-// is one more entry here.
+// is one more entry here and in method_label.
 constexpr std::array<nhnet::Method, 2> kMethods{nhnet::Method::Mfps, nhnet::Method::Pca};
 
 // Orientation choices, in menu order (the first is the default).
 enum class Orientation { Keep, None };
 constexpr std::array<Orientation, 2> kOrientations{Orientation::Keep, Orientation::None};
+
+// Which normals guide the denoiser, in menu order.
+enum class GuideNormals { Current, Estimate };
+constexpr std::array<GuideNormals, 2> kGuides{GuideNormals::Current, GuideNormals::Estimate};
 
 QString method_label(nhnet::Method m) {
   switch (m) {
@@ -37,6 +42,16 @@ QString orientation_label(Orientation o) {
       return "keep: agree with the current vertex normals";
     case Orientation::None:
       return "none: arbitrary sign";
+  }
+  return "?";
+}
+
+QString guide_label(GuideNormals g) {
+  switch (g) {
+    case GuideNormals::Current:
+      return "current vertex normals";
+    case GuideNormals::Estimate:
+      return "estimate first (MFPS, automatic scales)";
   }
   return "?";
 }
@@ -83,10 +98,51 @@ std::vector<int> scales_from(const QString& text) {
   return scales;
 }
 
+// MeshLab's progress callback (percent, message) as the core's; a false return cancels.
+nhnet::ProgressCallback progress_of(vcg::CallBackPos* cb) {
+  if (cb == nullptr) return {};
+  return [cb](double fraction, const std::string& stage) {
+    return cb(int(fraction * 100.0), stage.c_str());
+  };
+}
+
+// The live (not deleted) vertices of a mesh in order, with their positions and normals.
+struct Vertices {
+  std::vector<CMeshO::VertexPointer> ptr;
+  nhnet::Points points;
+  nhnet::Normals normals;
+};
+
+Vertices copy_in(CMeshO& m) {
+  Vertices v;
+  v.ptr.reserve(m.vert.size());
+  for (auto& vert : m.vert)
+    if (!vert.IsD()) v.ptr.push_back(&vert);
+  const auto n = Eigen::Index(v.ptr.size());
+  v.points.resize(n, 3);
+  v.normals.resize(n, 3);
+  for (Eigen::Index i = 0; i < n; ++i)
+    for (int c = 0; c < 3; ++c) {
+      v.points(i, c) = double(v.ptr[size_t(i)]->P()[c]);
+      v.normals(i, c) = double(v.ptr[size_t(i)]->N()[c]);
+    }
+  return v;
+}
+
+Point3m point3m(const nhnet::Points& rows, Eigen::Index i) {
+  return Point3m(Scalarm(rows(i, 0)), Scalarm(rows(i, 1)), Scalarm(rows(i, 2)));
+}
+
+QString join(const std::vector<int>& values) {
+  QStringList s;
+  for (int v : values) s << QString::number(v);
+  return s.isEmpty() ? QString("-") : s.join("/");
+}
+
 }  // namespace
 
 NhnetFilterPlugin::NhnetFilterPlugin() {
-  typeList << FP_ESTIMATE_NORMALS;
+  typeList << FP_ESTIMATE_NORMALS << FP_DENOISE;
   for (FilterIDType t : types()) actionList << new QAction(filterName(t), this);
 }
 
@@ -96,11 +152,16 @@ QString NhnetFilterPlugin::filterName(FilterIDType filter) const {
   switch (filter) {
     case FP_ESTIMATE_NORMALS:
       return "Estimate normals (NH-Net)";
+    case FP_DENOISE:
+      return "Normal-guided denoise";
   }
   return "";
 }
 
 QString NhnetFilterPlugin::filterInfo(FilterIDType filter) const {
+  const QString cite =
+      "<br><br>See: <b>\"Geometry and Learning Co-supported Normal Estimation for Unstructured "
+      "Point Cloud\"</b>, CVPR 2020.";
   switch (filter) {
     case FP_ESTIMATE_NORMALS:
       return "Estimates a unit normal for every vertex (point sets and mesh vertices alike; "
@@ -108,17 +169,24 @@ QString NhnetFilterPlugin::filterInfo(FilterIDType filter) const {
              "where plain PCA rounds them off. <b>MFPS</b>: PCA for smooth points and "
              "multi-scale fitting patch selection near sharp features, with neighbourhood sizes "
              "chosen from the cloud's own noise level. Points whose normal cannot be computed "
-             "get a zero normal (counted in the log).<br><br>"
-             "See: <i>Haoran Zhou, Honghua Chen, Yidan Feng, Qiong Wang, Jing Qin, Haoran Xie, "
-             "Fu Lee Wang, Mingqiang Wei, Jun Wang</i><br>"
-             "<b>\"Geometry and Learning Co-supported Normal Estimation for Unstructured Point "
-             "Cloud\"</b><br>CVPR 2020.";
+             "get a zero normal (counted in the log)." +
+             cite;
+    case FP_DENOISE:
+      return "Moves every vertex towards the surface its neighbours' normals describe (paper "
+             "Sec. 7, Eq. 9): along the normal on smooth parts, onto the edge line near sharp "
+             "edges, with neighbourhoods fixed over the iterations so points do not pile up. "
+             "Guided by the current vertex normals (their sign does not matter) or by normals "
+             "estimated first with MFPS (then also stored as the vertex normals). Vertices "
+             "without a usable normal stay in place." +
+             cite;
   }
   return "";
 }
 
-NhnetFilterPlugin::FilterClass NhnetFilterPlugin::getClass(QAction*) {
-  // Not Generic: MeshLab 2020.09 refuses to load Generic filters.
+NhnetFilterPlugin::FilterClass NhnetFilterPlugin::getClass(QAction* action) {
+  // Never Generic: MeshLab 2020.09 refuses to load Generic filters.
+  if (ID(action) == FP_DENOISE)
+    return FilterClass(MeshFilterInterface::Smoothing | MeshFilterInterface::PointSet);
   return FilterClass(MeshFilterInterface::Normal | MeshFilterInterface::PointSet);
 }
 
@@ -128,17 +196,22 @@ MeshFilterInterface::FILTER_ARITY NhnetFilterPlugin::filterArity(QAction*) const
 
 int NhnetFilterPlugin::getPreConditions(QAction*) const { return MeshModel::MM_NONE; }
 
-int NhnetFilterPlugin::postCondition(QAction*) const { return MeshModel::MM_VERTNORMAL; }
+int NhnetFilterPlugin::postCondition(QAction* action) const {
+  if (ID(action) == FP_DENOISE)
+    return MeshModel::MM_VERTCOORD | MeshModel::MM_VERTNORMAL | MeshModel::MM_FACENORMAL;
+  return MeshModel::MM_VERTNORMAL;
+}
 
 void NhnetFilterPlugin::initParameterSet(QAction* action, MeshModel&, RichParameterList& par) {
-  const nhnet::EstimateOptions d;  // the core's defaults
+  const nhnet::EstimateOptions e;  // the core's defaults
+  const nhnet::DenoiseOptions d;
   switch (ID(action)) {
     case FP_ESTIMATE_NORMALS:
       par.addParam(RichEnum("method", 0, labels(kMethods, method_label), "Method",
                             "MFPS: PCA for smooth points, multi-scale fitting patch selection "
                             "near sharp features (paper Sec. 4). PCA: plain PCA over the k "
                             "nearest neighbours."));
-      par.addParam(RichInt("k", d.k, "PCA neighbours (0 = auto)",
+      par.addParam(RichInt("k", e.k, "PCA neighbours (0 = auto)",
                            "Neighbourhood size of PCA (self included), an integer >= 3; 0 = "
                            "chosen from the estimated noise level."));
       par.addParam(RichString("scales", "auto", "MFPS scales",
@@ -149,11 +222,25 @@ void NhnetFilterPlugin::initParameterSet(QAction* action, MeshModel&, RichParame
                             "keep: flip each normal to agree with the vertex's current normal "
                             "(vertices with a zero normal keep an arbitrary sign). none: the "
                             "sign of each normal is arbitrary."));
-      par.addParam(RichInt("threads", d.run.threads, "Threads (0 = all cores)",
+      par.addParam(RichInt("threads", e.run.threads, "Threads (0 = all cores)",
                            "Worker threads; 0 = all cores. Results do not depend on it."));
-      par.addParam(RichInt("seed", int(d.seed), "Random seed",
+      par.addParam(RichInt("seed", int(e.seed), "Random seed",
                            "Seed of MFPS's random plane samples (results are deterministic for "
                            "a seed)."));
+      break;
+    case FP_DENOISE:
+      par.addParam(RichInt("iterations", d.iterations, "Iterations",
+                           "Update steps (the paper's: 20)."));
+      par.addParam(RichFloat("radius", float(d.radius), "Radius (0 = auto)",
+                             "Ball radius of the neighbourhoods, in the mesh's units; 0 = " +
+                                 QString::number(d.radius_factor) +
+                                 " x the average point spacing."));
+      par.addParam(RichEnum("normals", 0, labels(kGuides, guide_label), "Normals",
+                            "Which normals guide the update: the current vertex normals, or "
+                            "normals estimated first with MFPS and automatic scales (stored "
+                            "as the vertex normals)."));
+      par.addParam(RichInt("threads", d.run.threads, "Threads (0 = all cores)",
+                           "Worker threads; 0 = all cores."));
       break;
   }
 }
@@ -169,7 +256,16 @@ bool NhnetFilterPlugin::applyFilter(QAction* action, MeshDocument& md,
   try {
     MeshModel* mm = md.mm();
     if (mm == nullptr) throw nhnet::UnprocessableInput("no current mesh layer");
-    run(ID(action), *mm, par, cb);
+    switch (ID(action)) {
+      case FP_ESTIMATE_NORMALS:
+        estimate(*mm, par, cb);
+        break;
+      case FP_DENOISE:
+        denoise(*mm, par, cb);
+        break;
+      default:
+        throw std::logic_error("unknown filter " + action->text().toStdString());
+    }
     return true;
   } catch (const nhnet::InvalidOptions& e) {
     fail(QString("bad parameter: ") + e.what());
@@ -187,10 +283,8 @@ bool NhnetFilterPlugin::applyFilter(QAction* action, MeshDocument& md,
   return false;
 }
 
-void NhnetFilterPlugin::run(int id, MeshModel& mm, const RichParameterList& par,
-                            vcg::CallBackPos* cb) {
-  CMeshO& m = mm.cm;
-
+void NhnetFilterPlugin::estimate(MeshModel& mm, const RichParameterList& par,
+                                 vcg::CallBackPos* cb) {
   // Options first: a bad parameter fails before any work.
   nhnet::EstimateOptions opt;
   opt.method = choice(kMethods, par, "method");
@@ -199,46 +293,63 @@ void NhnetFilterPlugin::run(int id, MeshModel& mm, const RichParameterList& par,
   const Orientation orientation = choice(kOrientations, par, "orientation");
   opt.run.threads = non_negative(par, "threads");
   opt.seed = uint64_t(non_negative(par, "seed"));
-  if (cb != nullptr) {
-    opt.run.progress = [cb](double fraction, const std::string& stage) {
-      return cb(int(fraction * 100.0), stage.c_str());
-    };
-  }
+  opt.run.progress = progress_of(cb);
 
-  // Copy in: live (not deleted) vertices, in order.
-  std::vector<CMeshO::VertexPointer> verts;
-  verts.reserve(m.vert.size());
-  for (auto& v : m.vert)
-    if (!v.IsD()) verts.push_back(&v);
-  nhnet::Points points(Eigen::Index(verts.size()), 3);
-  nhnet::Normals current(Eigen::Index(verts.size()), 3);
-  for (size_t i = 0; i < verts.size(); ++i)
-    for (int c = 0; c < 3; ++c) {
-      points(Eigen::Index(i), c) = double(verts[i]->P()[c]);
-      current(Eigen::Index(i), c) = double(verts[i]->N()[c]);
-    }
-
-  nhnet::EstimateResult res = nhnet::estimate_normals(points, opt);
-  if (orientation == Orientation::Keep) nhnet::orient_like(res.normals, current);
-  (void)id;
+  Vertices v = copy_in(mm.cm);
+  nhnet::EstimateResult res = nhnet::estimate_normals(v.points, opt);
+  if (orientation == Orientation::Keep) nhnet::orient_like(res.normals, v.normals);
 
   // Copy out: failed points get a zero normal (MeshLab's "no normal").
-  for (size_t i = 0; i < verts.size(); ++i) {
-    const auto row = res.normals.row(Eigen::Index(i));
-    const bool ok = res.valid[i] != 0;
-    verts[i]->N() = ok ? Point3m(Scalarm(row(0)), Scalarm(row(1)), Scalarm(row(2)))
-                       : Point3m(0, 0, 0);
-  }
+  for (size_t i = 0; i < v.ptr.size(); ++i)
+    v.ptr[i]->N() = res.valid[i] ? point3m(res.normals, Eigen::Index(i)) : Point3m(0, 0, 0);
   mm.updateDataMask(MeshModel::MM_VERTNORMAL);
 
   for (const std::string& w : res.warnings) Log(GLLogStream::WARNING, "NH-Net: " + w);
-  QStringList scales;
-  for (int v : res.scales_used) scales << QString::number(v);
   Log("NH-Net: normals of %d vertices (%lld failed), method %s, k %d, scales %s, noise ratio "
       "%.3g, %lld feature candidates",
-      int(verts.size()), (long long)res.failed, nhnet::to_string(opt.method), res.k_used,
-      scales.isEmpty() ? "-" : qUtf8Printable(scales.join("/")), res.noise_ratio,
-      (long long)res.candidates);
+      int(v.ptr.size()), (long long)res.failed, nhnet::to_string(opt.method), res.k_used,
+      qUtf8Printable(join(res.scales_used)), res.noise_ratio, (long long)res.candidates);
+}
+
+void NhnetFilterPlugin::denoise(MeshModel& mm, const RichParameterList& par,
+                                vcg::CallBackPos* cb) {
+  nhnet::DenoiseOptions opt;
+  opt.iterations = par.getInt("iterations");
+  opt.radius = double(par.getFloat("radius"));
+  const GuideNormals guide = choice(kGuides, par, "normals");
+  opt.run.threads = non_negative(par, "threads");
+  opt.run.progress = progress_of(cb);
+
+  Vertices v = copy_in(mm.cm);
+  if (guide == GuideNormals::Current) {
+    if (v.normals.rows() > 0 && v.normals.cwiseAbs().maxCoeff() == 0)
+      throw nhnet::UnprocessableInput(
+          "the vertices have no normals; choose 'estimate first' for Normals, or run "
+          "'Estimate normals (NH-Net)' before");
+  } else {
+    nhnet::EstimateOptions eopt;
+    eopt.run = opt.run;
+    nhnet::EstimateResult est = nhnet::estimate_normals(v.points, eopt);
+    nhnet::orient_like(est.normals, v.normals);
+    for (const std::string& w : est.warnings) Log(GLLogStream::WARNING, "NH-Net: " + w);
+    v.normals = est.normals;  // NaN rows (failed points) are skipped by the denoiser
+  }
+  nhnet::DenoiseResult res = nhnet::denoise_points(v.points, v.normals, opt);
+
+  for (size_t i = 0; i < v.ptr.size(); ++i) {
+    const auto r = Eigen::Index(i);
+    v.ptr[i]->P() = point3m(res.points, r);
+    if (guide == GuideNormals::Estimate)
+      v.ptr[i]->N() = v.normals.row(r).allFinite() ? point3m(v.normals, r) : Point3m(0, 0, 0);
+  }
+  if (mm.cm.fn > 0) vcg::tri::UpdateNormal<CMeshO>::PerFaceNormalized(mm.cm);
+  vcg::tri::UpdateBounding<CMeshO>::Box(mm.cm);
+
+  for (const std::string& w : res.warnings) Log(GLLogStream::WARNING, "NH-Net: " + w);
+  Log("NH-Net: denoised %lld of %d vertices (%lld without a usable normal, %lld isolated), "
+      "%d iterations, radius %.4g, %.1f neighbours on average",
+      (long long)res.moved, int(v.ptr.size()), (long long)res.skipped, (long long)res.isolated,
+      opt.iterations, res.radius, res.mean_neighbors);
 }
 
 MESHLAB_PLUGIN_NAME_EXPORTER(NhnetFilterPlugin)

@@ -1,6 +1,7 @@
-// MeshLab filter plugin (Debian's MeshLab 2020.09 ABI): nhnet's normal estimation in MeshLab's
-// Filters > Point Set / Normals menus. A thin adapter over the core: vertex positions are copied
-// in, nhnet::estimate_normals runs, normals are copied out. No algorithm lives here.
+// MeshLab filter plugin (Debian's MeshLab 2020.09 ABI): nhnet's normal estimation and
+// normal-guided denoising in MeshLab's Filters menu (Point Set, Normals, Smoothing). A thin
+// adapter over the core: vertex positions (and normals) are copied in, nhnet::estimate_normals /
+// nhnet::denoise_points run, normals / positions are copied out. No algorithm lives here.
 #pragma once
 
 #include <common/interfaces.h>
@@ -11,7 +12,7 @@ class NhnetFilterPlugin : public QObject, public MeshFilterInterface {
   Q_INTERFACES(MeshFilterInterface)
 
  public:
-  enum { FP_ESTIMATE_NORMALS };
+  enum { FP_ESTIMATE_NORMALS, FP_DENOISE };
 
   NhnetFilterPlugin();
 
@@ -27,8 +28,10 @@ class NhnetFilterPlugin : public QObject, public MeshFilterInterface {
                    vcg::CallBackPos* cb) override;
 
  private:
-  /// Runs the filter; throws nhnet's exceptions (or any other) on failure.
-  void run(int id, MeshModel& mm, const RichParameterList& par, vcg::CallBackPos* cb);
+  /// The filters; they throw nhnet's exceptions (or any other) on failure and write to the mesh
+  /// only after the core call succeeded.
+  void estimate(MeshModel& mm, const RichParameterList& par, vcg::CallBackPos* cb);
+  void denoise(MeshModel& mm, const RichParameterList& par, vcg::CallBackPos* cb);
   /// Sets errorMessage and writes it to MeshLab's log (meshlabserver prints only the log).
   void fail(const QString& message);
 };
