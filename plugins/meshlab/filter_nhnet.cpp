@@ -7,69 +7,54 @@
 #include "nhnet/errors.hpp"
 #include "nhnet/estimate.hpp"
 
-#include <array>
 #include <new>
 #include <string>
 #include <vector>
 
 namespace {
 
+// A menu choice: the value and its label.
+template <typename T>
+struct Choice {
+  T value;
+  const char* label;
+};
+
 // The estimators offered, in menu order (the first is the default). A method the core gains
-// is one more entry here and in method_label.
-constexpr std::array<nhnet::Method, 2> kMethods{nhnet::Method::Mfps, nhnet::Method::Pca};
+// is one more line here.
+const Choice<nhnet::Method> kMethods[] = {
+    {nhnet::Method::Mfps, "MFPS (PCA + multi-scale patch selection near features)"},
+    {nhnet::Method::Pca, "PCA"},
+};
 
 // Orientation choices, in menu order (the first is the default).
 enum class Orientation { Keep, None };
-constexpr std::array<Orientation, 2> kOrientations{Orientation::Keep, Orientation::None};
+const Choice<Orientation> kOrientations[] = {
+    {Orientation::Keep, "keep: agree with the current vertex normals"},
+    {Orientation::None, "none: arbitrary sign"},
+};
 
-// Which normals guide the denoiser, in menu order.
+// Which normals guide the denoiser, in menu order (the first is the default).
 enum class GuideNormals { Current, Estimate };
-constexpr std::array<GuideNormals, 2> kGuides{GuideNormals::Current, GuideNormals::Estimate};
+const Choice<GuideNormals> kGuides[] = {
+    {GuideNormals::Current, "current vertex normals"},
+    {GuideNormals::Estimate, "estimate first (MFPS, automatic scales)"},
+};
 
-QString method_label(nhnet::Method m) {
-  switch (m) {
-    case nhnet::Method::Mfps:
-      return "MFPS (PCA + multi-scale patch selection near features)";
-    case nhnet::Method::Pca:
-      return "PCA";
-  }
-  return nhnet::to_string(m);
-}
-
-QString orientation_label(Orientation o) {
-  switch (o) {
-    case Orientation::Keep:
-      return "keep: agree with the current vertex normals";
-    case Orientation::None:
-      return "none: arbitrary sign";
-  }
-  return "?";
-}
-
-QString guide_label(GuideNormals g) {
-  switch (g) {
-    case GuideNormals::Current:
-      return "current vertex normals";
-    case GuideNormals::Estimate:
-      return "estimate first (MFPS, automatic scales)";
-  }
-  return "?";
-}
-
-template <typename T, size_t N, typename F>
-QStringList labels(const std::array<T, N>& items, F label) {
+template <typename T, size_t N>
+QStringList labels(const Choice<T> (&choices)[N]) {
   QStringList l;
-  for (const T& item : items) l << label(item);
+  for (const Choice<T>& c : choices) l << c.label;
   return l;
 }
 
 template <typename T, size_t N>
-T choice(const std::array<T, N>& items, const RichParameterList& par, const char* name) {
+T choice(const Choice<T> (&choices)[N], const RichParameterList& par, const char* name) {
   const int i = par.getEnum(name);
   if (i < 0 || size_t(i) >= N)
     throw nhnet::InvalidOptions(std::string("parameter '") + name + "': choice " +
                                 std::to_string(i) + " out of range 0.." + std::to_string(N - 1));
-  return items[size_t(i)];
+  return choices[i].value;
 }
 
 int non_negative(const RichParameterList& par, const char* name) {
@@ -207,7 +192,7 @@ void NhnetFilterPlugin::initParameterSet(QAction* action, MeshModel&, RichParame
   const nhnet::DenoiseOptions d;
   switch (ID(action)) {
     case FP_ESTIMATE_NORMALS:
-      par.addParam(RichEnum("method", 0, labels(kMethods, method_label), "Method",
+      par.addParam(RichEnum("method", 0, labels(kMethods), "Method",
                             "MFPS: PCA for smooth points, multi-scale fitting patch selection "
                             "near sharp features (paper Sec. 4). PCA: plain PCA over the k "
                             "nearest neighbours."));
@@ -217,7 +202,7 @@ void NhnetFilterPlugin::initParameterSet(QAction* action, MeshModel&, RichParame
       par.addParam(RichString("scales", "auto", "MFPS scales",
                               "MFPS patch sizes, e.g. 50,100,150 (the paper's), integers >= 4; "
                               "'auto' = chosen from the estimated noise level. Ignored by PCA."));
-      par.addParam(RichEnum("orientation", 0, labels(kOrientations, orientation_label),
+      par.addParam(RichEnum("orientation", 0, labels(kOrientations),
                             "Orientation",
                             "keep: flip each normal to agree with the vertex's current normal "
                             "(vertices with a zero normal keep an arbitrary sign). none: the "
@@ -235,7 +220,7 @@ void NhnetFilterPlugin::initParameterSet(QAction* action, MeshModel&, RichParame
                              "Ball radius of the neighbourhoods, in the mesh's units; 0 = " +
                                  QString::number(d.radius_factor) +
                                  " x the average point spacing."));
-      par.addParam(RichEnum("normals", 0, labels(kGuides, guide_label), "Normals",
+      par.addParam(RichEnum("normals", 0, labels(kGuides), "Normals",
                             "Which normals guide the update: the current vertex normals, or "
                             "normals estimated first with MFPS and automatic scales (stored "
                             "as the vertex normals)."));
