@@ -6,6 +6,7 @@
 #include "nhnet/denoise.hpp"
 #include "nhnet/errors.hpp"
 #include "nhnet/estimate.hpp"
+#include "nhnet/orient.hpp"
 
 #include <new>
 #include <string>
@@ -27,11 +28,13 @@ const Choice<nhnet::Method> kMethods[] = {
     {nhnet::Method::Pca, "PCA"},
 };
 
-// Orientation choices, in menu order (the first is the default).
-enum class Orientation { Keep, None };
-const Choice<Orientation> kOrientations[] = {
-    {Orientation::Keep, "keep: agree with the current vertex normals"},
-    {Orientation::None, "none: arbitrary sign"},
+// Orientation choices, in menu order. Default: keep when the layer has vertex normals (a mesh's
+// face-based ones, or a cloud's loaded ones), else MST (the core's default).
+const Choice<nhnet::OrientMode> kOrientations[] = {
+    {nhnet::OrientMode::Keep, "keep: agree with the current vertex normals"},
+    {nhnet::OrientMode::Viewpoint, "viewpoint: towards the viewpoint below"},
+    {nhnet::OrientMode::Mst, "MST: propagated over the neighbour graph (Hoppe 1992)"},
+    {nhnet::OrientMode::None, "none: arbitrary sign"},
 };
 
 // Which normals guide the denoiser, in menu order (the first is the default).
@@ -46,6 +49,13 @@ QStringList labels(const Choice<T> (&choices)[N]) {
   QStringList l;
   for (const Choice<T>& c : choices) l << c.label;
   return l;
+}
+
+template <typename T, size_t N>
+int index_of(const Choice<T> (&choices)[N], T value) {
+  for (size_t i = 0; i < N; ++i)
+    if (choices[i].value == value) return int(i);
+  return 0;
 }
 
 template <typename T, size_t N>
@@ -89,6 +99,12 @@ nhnet::ProgressCallback progress_of(vcg::CallBackPos* cb) {
   return [cb](double fraction, const std::string& stage) {
     return cb(int(fraction * 100.0), stage.c_str());
   };
+}
+
+bool has_vertex_normals(const CMeshO& m) {
+  for (const auto& v : m.vert)
+    if (!v.IsD() && v.N() != Point3m(0, 0, 0)) return true;
+  return false;
 }
 
 // The live (not deleted) vertices of a mesh in order, with their positions and normals.
@@ -187,9 +203,12 @@ int NhnetFilterPlugin::postCondition(QAction* action) const {
   return MeshModel::MM_VERTNORMAL;
 }
 
-void NhnetFilterPlugin::initParameterSet(QAction* action, MeshModel&, RichParameterList& par) {
+void NhnetFilterPlugin::initParameterSet(QAction* action, MeshModel& m, RichParameterList& par) {
   const nhnet::EstimateOptions e;  // the core's defaults
+  const nhnet::OrientOptions o;
   const nhnet::DenoiseOptions d;
+  const nhnet::OrientMode orient_default =
+      has_vertex_normals(m.cm) ? nhnet::OrientMode::Keep : o.mode;
   switch (ID(action)) {
     case FP_ESTIMATE_NORMALS:
       par.addParam(RichEnum("method", 0, labels(kMethods), "Method",
@@ -202,11 +221,23 @@ void NhnetFilterPlugin::initParameterSet(QAction* action, MeshModel&, RichParame
       par.addParam(RichString("scales", "auto", "MFPS scales",
                               "MFPS patch sizes, e.g. 50,100,150 (the paper's), integers >= 4; "
                               "'auto' = chosen from the estimated noise level. Ignored by PCA."));
-      par.addParam(RichEnum("orientation", 0, labels(kOrientations),
-                            "Orientation",
+      par.addParam(RichEnum("orientation", index_of(kOrientations, orient_default),
+                            labels(kOrientations), "Orientation",
                             "keep: flip each normal to agree with the vertex's current normal "
-                            "(vertices with a zero normal keep an arbitrary sign). none: the "
+                            "(vertices with a zero normal keep an arbitrary sign). viewpoint: "
+                            "point towards the viewpoint (the scanner's position). MST: one "
+                            "consistent side per connected part, propagated over a minimum "
+                            "spanning tree of the k-nearest-neighbour graph from the part's "
+                            "highest point, turned up (outwards on closed surfaces). none: the "
                             "sign of each normal is arbitrary."));
+      par.addParam(RichPoint3f("viewpoint", vcg::Point3f(float(o.viewpoint.x()),
+                                                         float(o.viewpoint.y()),
+                                                         float(o.viewpoint.z())),
+                               "Viewpoint", "Sensor position for 'viewpoint' orientation, in the "
+                                            "mesh's coordinates."));
+      par.addParam(RichInt("mst_k", o.k, "MST neighbours",
+                           "Neighbours per point (self included, >= 2) of the graph 'MST' "
+                           "orientation propagates over."));
       par.addParam(RichInt("threads", e.run.threads, "Threads (0 = all cores)",
                            "Worker threads; 0 = all cores. Results do not depend on it."));
       par.addParam(RichInt("seed", int(e.seed), "Random seed",
@@ -275,14 +306,21 @@ void NhnetFilterPlugin::estimate(MeshModel& mm, const RichParameterList& par,
   opt.method = choice(kMethods, par, "method");
   opt.k = par.getInt("k");
   opt.scales = scales_from(par.getString("scales"));
-  const Orientation orientation = choice(kOrientations, par, "orientation");
+  nhnet::OrientOptions oopt;
+  oopt.mode = choice(kOrientations, par, "orientation");
+  const vcg::Point3f vp = par.getPoint3f("viewpoint");
+  oopt.viewpoint = Eigen::Vector3d(vp[0], vp[1], vp[2]);
+  oopt.k = par.getInt("mst_k");
   opt.run.threads = non_negative(par, "threads");
   opt.seed = uint64_t(non_negative(par, "seed"));
   opt.run.progress = progress_of(cb);
+  oopt.run = opt.run;
 
   Vertices v = copy_in(mm.cm);
   nhnet::EstimateResult res = nhnet::estimate_normals(v.points, opt);
-  if (orientation == Orientation::Keep) nhnet::orient_like(res.normals, v.normals);
+  nhnet::OrientResult ores;
+  if (oopt.mode != nhnet::OrientMode::None)
+    ores = nhnet::orient_normals(v.points, res.normals, oopt, v.normals);
 
   // Copy out: failed points get a zero normal (MeshLab's "no normal").
   for (size_t i = 0; i < v.ptr.size(); ++i)
@@ -291,9 +329,10 @@ void NhnetFilterPlugin::estimate(MeshModel& mm, const RichParameterList& par,
 
   for (const std::string& w : res.warnings) Log(GLLogStream::WARNING, "NH-Net: " + w);
   Log("NH-Net: normals of %d vertices (%lld failed), method %s, k %d, scales %s, noise ratio "
-      "%.3g, %lld feature candidates",
+      "%.3g, %lld feature candidates; orientation %s: %lld flipped, %lld undecided",
       int(v.ptr.size()), (long long)res.failed, nhnet::to_string(opt.method), res.k_used,
-      qUtf8Printable(join(res.scales_used)), res.noise_ratio, (long long)res.candidates);
+      qUtf8Printable(join(res.scales_used)), res.noise_ratio, (long long)res.candidates,
+      nhnet::to_string(oopt.mode), (long long)ores.flipped, (long long)ores.unoriented);
 }
 
 void NhnetFilterPlugin::denoise(MeshModel& mm, const RichParameterList& par,

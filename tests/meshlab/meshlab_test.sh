@@ -28,14 +28,17 @@ mls() { xvfb-run -a "$T/ml/meshlabserver" "$@" >"$T/last.log" 2>&1; }
 
 # An .mlx script running "Estimate normals (NH-Net)". meshlabserver needs every parameter, in
 # the filter's order (it asserts otherwise), and enum_cardinality on enums.
-# estimate_mlx METHOD K SCALES ORIENTATION  (method 0 = MFPS, 1 = PCA; orientation 0 = keep, 1 = none)
+# estimate_mlx METHOD K SCALES ORIENTATION  (method 0 = MFPS, 1 = PCA; orientation 0 = keep,
+# 1 = viewpoint (the origin), 2 = MST, 3 = none)
 estimate_mlx() {
   cat <<MLX
   <filter name="Estimate normals (NH-Net)">
    <Param type="RichEnum" name="method" value="$1" enum_cardinality="2"/>
    <Param type="RichInt" name="k" value="$2"/>
    <Param type="RichString" name="scales" value="$3"/>
-   <Param type="RichEnum" name="orientation" value="$4" enum_cardinality="2"/>
+   <Param type="RichEnum" name="orientation" value="$4" enum_cardinality="4"/>
+   <Param type="RichPoint3f" name="viewpoint" x="0" y="0" z="0"/>
+   <Param type="RichInt" name="mst_k" value="18"/>
    <Param type="RichInt" name="threads" value="0"/>
    <Param type="RichInt" name="seed" value="1"/>
   </filter>
@@ -69,7 +72,7 @@ awk '{ l[n++] = $0 } END { print "ply\nformat ascii 1.0\nelement vertex " n;
        print "property float x\nproperty float y\nproperty float z\nend_header";
        for (i = 0; i < n; i++) print l[i] }' "$sample" >in_ascii.ply
 mls -i in_ascii.ply -o in.ply || { cat last.log; exit 1; }
-estimate_mlx 0 0 auto 1 | script >est.mlx
+estimate_mlx 0 0 auto 3 | script >est.mlx
 if mls -i in.ply -o ml.ply -m vn -s est.mlx; then
   grep 'NH-Net:' last.log || true
   "$CLI" estimate in.ply cli.ply --orient none --quiet
@@ -85,6 +88,16 @@ else
   fail "estimate on the sample exited $?"; cat last.log
 fi
 
+# radial_worst PLY SIGN: "count worst-angle" between the vertex normals of an ASCII PLY (x y z
+# nx ny nz first) and SIGN x the direction from the origin (180 for a normal pointing the
+# other way).
+radial_worst() {
+  awk -v sg="$2" 'f && NF >= 6 { d = sqrt($1*$1 + $2*$2 + $3*$3) * sqrt($4*$4 + $5*$5 + $6*$6)
+      c = sg * ($1*$4 + $2*$5 + $3*$6) / d; if (c > 1) c = 1; if (c < -1) c = -1
+      a = atan2(sqrt(1 - c*c), c) * 45 / atan2(1, 1); if (a > w) w = a; n++ }
+    /^end_header/ { f = 1 } END { printf "%d %.4f\n", n, w }' "$1"
+}
+
 # 3. A mesh's vertices: MeshLab's own sphere (2562 vertices), PCA, orientation 'keep' (the
 # mesh's face-averaged vertex normals point outwards). Every normal must point outwards and be
 # within 2 degrees of the radial direction: the vertices lie exactly on the sphere, and PCA over
@@ -98,10 +111,7 @@ fi
 MLX
   estimate_mlx 1 0 auto 0; } | script >mesh.mlx
 if mls -o sphere.ply -m vn sa -s mesh.mlx; then
-  read -r count worst < <(awk 'f && NF >= 6 { d = sqrt($1*$1 + $2*$2 + $3*$3) * sqrt($4*$4 + $5*$5 + $6*$6);
-      c = ($1*$4 + $2*$5 + $3*$6) / d; if (c > 1) c = 1;
-      a = atan2(sqrt(1 - c*c), c) * 45 / atan2(1, 1); if (a > w) w = a; n++ }
-    /^end_header/ { f = 1 } END { printf "%d %.4f\n", n, w }' sphere.ply)
+  read -r count worst < <(radial_worst sphere.ply 1)
   if [[ $count == 2562 ]] && awk -v w="$worst" 'BEGIN { exit !(w < 2) }'; then
     pass "sphere mesh: $count vertex normals outwards, worst $worst deg from radial (< 2)"
   else
@@ -111,7 +121,29 @@ else
   fail "estimate on a mesh exited $?"; cat last.log
 fi
 
-# 4. Denoise: a noisy cube (6000 points on the faces of [-1,1]^3, Gaussian noise of std 0.02 per
+# 4. Orientation of a point set without normals: 2000 points on the unit sphere (Fibonacci
+# lattice), PCA. MST must turn every normal outwards, viewpoint (the centre) every one inwards;
+# the angle to the radius is checked as for the mesh (measured worst 1.26 degrees).
+awk 'BEGIN { n = 2000; print "ply\nformat ascii 1.0\nelement vertex " n
+  print "property float x\nproperty float y\nproperty float z\nend_header"
+  for (i = 0; i < n; i++) { z = 1 - (2 * i + 1) / n; r = sqrt(1 - z * z); a = i * 2.399963229728653
+    printf "%.6f %.6f %.6f\n", r * cos(a), r * sin(a), z } }' >ball.ply
+for mode in "2 MST outwards 1" "1 viewpoint inwards -1"; do
+  read -r value name dir sign <<<"$mode"
+  estimate_mlx 1 0 auto "$value" | script >orient.mlx
+  if mls -i ball.ply -o ball_out.ply -m vn sa -s orient.mlx; then
+    read -r count worst < <(radial_worst ball_out.ply "$sign")
+    if [[ $count == 2000 ]] && awk -v w="$worst" 'BEGIN { exit !(w < 2) }'; then
+      pass "orientation $name: all 2000 normals $dir, worst $worst deg from the radius (< 2)"
+    else
+      fail "orientation $name: $count points, worst $worst deg from the radius pointing $dir (want < 2)"
+    fi
+  else
+    fail "orientation $name exited $?"; cat last.log
+  fi
+done
+
+# 5. Denoise: a noisy cube (6000 points on the faces of [-1,1]^3, Gaussian noise of std 0.02 per
 # coordinate, fixed seed) with normals estimated first. The mean distance to the cube's surface
 # must at least halve (measured 0.0161 -> 0.0037, a ratio of 0.23; the 0.5 bar leaves room for
 # changes of the denoiser's defaults without letting a no-op or a wrong direction pass).
@@ -149,7 +181,7 @@ fi
 # The same with the normals from the estimate filter run before ('current vertex normals'):
 # the same normals, only rounded to MeshLab's float32 in between, so the same points up to
 # float rounding (1e-5 is ~100 float32 ulps at the cube's scale of 1).
-{ estimate_mlx 0 0 auto 1; denoise_mlx 0; } | script >chain.mlx
+{ estimate_mlx 0 0 auto 3; denoise_mlx 0; } | script >chain.mlx
 if mls -i cube.ply -o cube_chain.ply -m vn sa -s chain.mlx; then
   diff=$(paste <(sed '1,/^end_header/d' cube_dn.ply) <(sed '1,/^end_header/d' cube_chain.ply) |
     awk 'function abs(v) { return v < 0 ? -v : v }
@@ -163,7 +195,7 @@ else
   fail "estimate + denoise exited $?"; cat last.log
 fi
 
-# 5. Errors: a clear message in the log, meshlabserver's exit for a failed script (255: it calls
+# 6. Errors: a clear message in the log, meshlabserver's exit for a failed script (255: it calls
 # exit(-1)), not a crash (134 abort, 139 segfault), and no output written.
 # expect_error NAME MESSAGE_REGEX MESHLABSERVER_ARGS...
 expect_error() {
@@ -176,10 +208,10 @@ expect_error() {
     fail "$name: exit $rc (want 255), message /$re/ in the log, no output"; cat last.log
   fi
 }
-estimate_mlx 0 0 10,x 1 | script >bad_scales.mlx
+estimate_mlx 0 0 10,x 3 | script >bad_scales.mlx
 expect_error "bad scales" "NH-Net: bad parameter: parameter 'scales': '10,x' is not" \
   -i in.ply -s bad_scales.mlx
-estimate_mlx 7 0 auto 1 | script >bad_method.mlx
+estimate_mlx 7 0 auto 3 | script >bad_method.mlx
 expect_error "method out of range" "NH-Net: bad parameter: parameter 'method': choice 7" \
   -i in.ply -s bad_method.mlx
 printf 'ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 0\n1 0 0\n' >two.ply
