@@ -97,6 +97,17 @@ radial_worst() {
       a = atan2(sqrt(1 - c*c), c) * 45 / atan2(1, 1); if (a > w) w = a; n++ }
     /^end_header/ { f = 1 } END { printf "%d %.4f\n", n, w }' "$1"
 }
+# check_radial NAME PLY COUNT SIGN: COUNT vertices, every normal within 2 degrees of SIGN x the
+# radius.
+check_radial() {
+  local count worst
+  read -r count worst < <(radial_worst "$2" "$4")
+  if [[ $count == "$3" ]] && awk -v w="$worst" 'BEGIN { exit !(w < 2) }'; then
+    pass "$1: $count normals, worst $worst deg from $4 x the radius (< 2)"
+  else
+    fail "$1: $count normals (want $3), worst $worst deg from $4 x the radius (want < 2)"
+  fi
+}
 
 # 3. A mesh's vertices: MeshLab's own sphere (2562 vertices), PCA, orientation 'keep' (the
 # mesh's face-averaged vertex normals point outwards). Every normal must point outwards and be
@@ -111,12 +122,7 @@ radial_worst() {
 MLX
   estimate_mlx 1 0 auto 0; } | script >mesh.mlx
 if mls -o sphere.ply -m vn sa -s mesh.mlx; then
-  read -r count worst < <(radial_worst sphere.ply 1)
-  if [[ $count == 2562 ]] && awk -v w="$worst" 'BEGIN { exit !(w < 2) }'; then
-    pass "sphere mesh: $count vertex normals outwards, worst $worst deg from radial (< 2)"
-  else
-    fail "sphere mesh: $count vertices (want 2562), worst $worst deg from radial (want < 2)"
-  fi
+  check_radial "sphere mesh, keep (outwards)" sphere.ply 2562 1
 else
   fail "estimate on a mesh exited $?"; cat last.log
 fi
@@ -128,16 +134,11 @@ awk 'BEGIN { n = 2000; print "ply\nformat ascii 1.0\nelement vertex " n
   print "property float x\nproperty float y\nproperty float z\nend_header"
   for (i = 0; i < n; i++) { z = 1 - (2 * i + 1) / n; r = sqrt(1 - z * z); a = i * 2.399963229728653
     printf "%.6f %.6f %.6f\n", r * cos(a), r * sin(a), z } }' >ball.ply
-for mode in "2 MST outwards 1" "1 viewpoint inwards -1"; do
-  read -r value name dir sign <<<"$mode"
+for mode in "2 MST,outwards 1" "1 viewpoint,inwards -1"; do
+  read -r value name sign <<<"$mode"
   estimate_mlx 1 0 auto "$value" | script >orient.mlx
   if mls -i ball.ply -o ball_out.ply -m vn sa -s orient.mlx; then
-    read -r count worst < <(radial_worst ball_out.ply "$sign")
-    if [[ $count == 2000 ]] && awk -v w="$worst" 'BEGIN { exit !(w < 2) }'; then
-      pass "orientation $name: all 2000 normals $dir, worst $worst deg from the radius (< 2)"
-    else
-      fail "orientation $name: $count points, worst $worst deg from the radius pointing $dir (want < 2)"
-    fi
+    check_radial "point sphere, orientation $name" ball_out.ply 2000 "$sign"
   else
     fail "orientation $name exited $?"; cat last.log
   fi
