@@ -18,6 +18,9 @@ PKGS=(
   libcgal-demo
   # python side: bindings, data generation, training
   python3-dev python3-numpy pybind11-dev
+  # CloudCompare plugin: the host, Qt, dpkg-source (its headers come from `apt-get source`,
+  # scripts/apt-source.sh), Xvfb + xdotool + imagemagick for the screenshots in docs/
+  cloudcompare qtbase5-dev libqt5opengl5-dev dpkg-dev xvfb xdotool imagemagick
 )
 
 SUDO=""

@@ -1,0 +1,34 @@
+// CloudCompare standard plugin "NH-Net normals" (Debian's CloudCompare 2.11.3): two actions under
+// Plugins, "Estimate normals (NH-Net)" and "Normal-guided denoise", on every selected cloud, and
+// the -NHNET_NORMALS / -NHNET_DENOISE command-line commands (NhnetCommands.h).
+#pragma once
+
+#include "NhnetAdapter.h"
+
+#include <ccStdPluginInterface.h>
+
+class NhnetPlugin : public QObject, public ccStdPluginInterface {
+  Q_OBJECT
+  Q_INTERFACES(ccStdPluginInterface)
+  Q_PLUGIN_METADATA(IID "cccorp.cloudcompare.plugin.NhnetPlugin" FILE "info.json")
+
+ public:
+  explicit NhnetPlugin(QObject* parent = nullptr);
+  ~NhnetPlugin() override = default;
+
+  // ccStdPluginInterface
+  void onNewSelection(const ccHObject::Container& selectedEntities) override;
+  QList<QAction*> getActions() override;
+  void registerCommands(ccCommandLineInterface* cmd) override;
+
+ private:
+  void estimateNormals();
+  void denoise();
+  /// Selected point clouds (meshes' vertices are not touched).
+  std::vector<ccPointCloud*> selectedClouds() const;
+
+  QAction* estimateAction_ = nullptr;
+  QAction* denoiseAction_ = nullptr;
+  nhcc::NormalsSettings normals_;  ///< last used in this session
+  nhcc::DenoiseSettings denoise_;
+};
