@@ -7,10 +7,6 @@ cd "$(dirname "${BASH_SOURCE[0]}")/.."
 echo "== Debian packages"
 bash scripts/install-deps.sh
 
-echo "== plugin headers: Debian source packages (scripts/apt-source.sh, into third_party/src)"
-bash scripts/apt-source.sh cloudcompare third_party/src >/dev/null ||
-  echo "build: could not fetch cloudcompare's source package: the CloudCompare plugin is skipped"
-
 echo "== configure and build (build/)"
 if [[ -f build/CMakeCache.txt ]]; then
   cmake -S . -B build                      # keep the generator the build dir was made with
