@@ -18,9 +18,12 @@ PKGS=(
   libcgal-demo
   # python side: bindings, data generation, training
   python3-dev python3-numpy pybind11-dev
-  # CloudCompare plugin: the host, Qt, dpkg-source (its headers come from `apt-get source`,
-  # scripts/apt-source.sh), Xvfb + xdotool + imagemagick for the screenshots in docs/
-  cloudcompare qtbase5-dev libqt5opengl5-dev dpkg-dev xvfb xdotool imagemagick
+  # MeshLab plugin: the stock MeshLab, Qt5 and GLEW headers it compiles against, dpkg-dev to
+  # unpack MeshLab's source package (its headers), xvfb/xauth to run meshlabserver headless
+  meshlab qtbase5-dev libqt5opengl5-dev libglew-dev dpkg-dev xvfb xauth
+  # CloudCompare plugin: the stock CloudCompare (its headers: source package, as MeshLab's);
+  # xdotool and imagemagick drive and capture the GUI under Xvfb for the screenshots in docs/
+  cloudcompare xdotool imagemagick
 )
 
 SUDO=""
@@ -35,10 +38,15 @@ done
 
 if [ "${#missing[@]}" -eq 0 ]; then
   echo "install-deps: all ${#PKGS[@]} packages already installed"
-  exit 0
+else
+  echo "install-deps: installing ${#missing[@]} packages: ${missing[*]}"
+  export DEBIAN_FRONTEND=noninteractive
+  $SUDO apt-get update -q
+  $SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"
 fi
 
-echo "install-deps: installing ${#missing[@]} packages: ${missing[*]}"
-export DEBIAN_FRONTEND=noninteractive
-$SUDO apt-get update -q
-$SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"
+# Plugin headers: the source package of the exact installed version, into deps-src/ (ignored by
+# git). Enables deb-src entries derived from this machine's own apt sources when there are none.
+cd "$(dirname "${BASH_SOURCE[0]}")/.."
+bash scripts/apt-source.sh meshlab deps-src >/dev/null
+bash scripts/apt-source.sh cloudcompare deps-src >/dev/null
