@@ -230,7 +230,8 @@ def test_generation_is_deterministic_and_complete(tmp_path):
 def test_sample_set(tmp_path):
     datagen.main(["--out", str(tmp_path), "--set", "sample", "--points", "2000"])
     names = sorted(p.name for p in tmp_path.iterdir())
-    assert names == ["fandisk_noise0.6.gt.xyzn", "fandisk_noise0.6.xyz", "index.json"]
+    assert names == ["fandisk_noise0.6.clean.xyz", "fandisk_noise0.6.gt.xyzn", "fandisk_noise0.6.xyz",
+                     "index.json"]
     assert np.loadtxt(tmp_path / "fandisk_noise0.6.gt.xyzn").shape == (2000, 6)
 
 

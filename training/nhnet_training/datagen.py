@@ -368,7 +368,7 @@ def generate(out: str | os.PathLike, which: str, points: int | None = None,
         plan = [Job(SAMPLE_MODEL, "uniform", n, [("sample", SAMPLE_LEVEL)])]
         set_dir = out
         flat = True
-        files = ("xyz", "gt.xyzn")
+        files = ("xyz", "gt.xyzn", "clean.xyz")  # clean points: denoising accuracy
     else:
         n = points or (SUBSET_POINTS if subset else DEFAULT_POINTS[which])
         plan = plan_benchmark(n, subset, categories) if which == "benchmark" \
