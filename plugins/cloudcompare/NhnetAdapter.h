@@ -14,11 +14,10 @@
 #include <array>
 #include <functional>
 
-#if __has_include("nhnet/denoise.hpp")
+// NHNET_CC_HAS_DENOISE is set by CMakeLists.txt from whether the core has its denoise stage (a
+// compile definition, so the build notices when the stage arrives).
+#if NHNET_CC_HAS_DENOISE
 #include "nhnet/denoise.hpp"
-#define NHNET_CC_HAS_DENOISE 1
-#else
-#define NHNET_CC_HAS_DENOISE 0
 #endif
 
 class ccPointCloud;

@@ -170,6 +170,12 @@ before = np.loadtxt("sphere.xyz"); after, _ = c.read("den.ply")
 db = np.abs(np.linalg.norm(before, axis=1) - 1).mean(); da = np.abs(np.linalg.norm(after, axis=1) - 1).mean()
 print(f"mean distance to the sphere: before {db:.5f}, after {da:.5f}")
 sys.exit(0 if da < 0.7 * db else 1)' "$COMPARE" || fail "denoise did not move the points closer to the sphere"
+  # Default normals ("auto"): the cloud's own, here from a preceding -NHNET_NORMALS.
+  cc -O sphere.xyz -NHNET_NORMALS -METHOD pca -NHNET_DENOISE -ITERATIONS 5 -SAVE_CLOUDS FILE den2.ply
+  expect_rc 0
+  log_has "5 iterations"
+  log_has "normals input"
+  [[ -s den2.ply ]] || fail "den2.ply not written"
 }
 
 # `cmake --install` puts the plugin where the stock CloudCompare finds it: <prefix>/share/CCCorp/
