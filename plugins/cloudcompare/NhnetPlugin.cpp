@@ -11,6 +11,9 @@
 #include <QAction>
 #include <QMainWindow>
 
+#include <memory>
+#include <new>
+
 NhnetPlugin::NhnetPlugin(QObject* parent)
     : QObject(parent), ccStdPluginInterface(":/CC/plugin/NhnetPlugin/info.json") {}
 
@@ -52,52 +55,49 @@ std::vector<ccPointCloud*> NhnetPlugin::selectedClouds() const {
   if (!m_app) return out;
   for (ccHObject* e : m_app->getSelectedEntities())
     if (e && e->isA(CC_TYPES::POINT_CLOUD)) out.push_back(static_cast<ccPointCloud*>(e));
+  if (out.empty())
+    m_app->dispToConsole("[NH-Net] select at least one point cloud",
+                         ccMainAppInterface::ERR_CONSOLE_MESSAGE);
   return out;
 }
 
-namespace {
-/// Console message for one cloud's outcome; returns false when the user cancelled.
-bool report(ccMainAppInterface* app, const QString& what, const ccPointCloud* cloud,
-            const QString& error, bool cancelled, const nhcc::Outcome& out) {
-  const QString name = QString("[NH-Net] %1 '%2': ").arg(what, cloud->getName());
-  if (!error.isEmpty()) {
-    app->dispToConsole(name + error, cancelled ? ccMainAppInterface::WRN_CONSOLE_MESSAGE
-                                               : ccMainAppInterface::ERR_CONSOLE_MESSAGE);
-    return !cancelled;
-  }
-  for (const QString& w : out.warnings)
-    app->dispToConsole(name + w, ccMainAppInterface::WRN_CONSOLE_MESSAGE);
-  app->dispToConsole(name + out.summary, ccMainAppInterface::STD_CONSOLE_MESSAGE);
-  return true;
-}
-}  // namespace
-
-void NhnetPlugin::estimateNormals() {
-  if (!m_app) return;
-  const std::vector<ccPointCloud*> clouds = selectedClouds();
-  if (clouds.empty()) {
-    m_app->dispToConsole("[NH-Net] select at least one point cloud",
-                         ccMainAppInterface::ERR_CONSOLE_MESSAGE);
-    return;
-  }
-  nhcc::EstimateDialog dlg(normals_, m_app->getMainWindow());
-  if (!dlg.exec()) return;
-  normals_ = dlg.settings();
-
+void NhnetPlugin::forEachCloud(
+    const QString& what, const std::vector<ccPointCloud*>& clouds,
+    const std::function<nhcc::Outcome(ccPointCloud&, ccProgressDialog*)>& fn) {
   for (size_t i = 0; i < clouds.size(); ++i) {
     ccPointCloud* cloud = clouds[i];
     ccProgressDialog progress(true, m_app->getMainWindow());
-    progress.setMethodTitle(QString("NH-Net normals: %1 (%2/%3)")
-                                .arg(cloud->getName()).arg(i + 1).arg(clouds.size()));
+    progress.setMethodTitle(QString("NH-Net %1: %2 (%3/%4)")
+                                .arg(what, cloud->getName()).arg(i + 1).arg(clouds.size()));
     nhcc::Outcome out;
     bool cancelled = false;
-    const QString error = nhcc::guarded(
-        [&] { out = nhcc::estimate_cloud_normals(*cloud, normals_, &progress); }, &cancelled);
-    if (error.isEmpty()) cloud->prepareDisplayForRefresh_recursive();
-    if (!report(m_app, "normals", cloud, error, cancelled, out)) break;
+    const QString error = nhcc::guarded([&] { out = fn(*cloud, &progress); }, &cancelled);
+    const QString name = QString("[NH-Net] %1 '%2': ").arg(what, cloud->getName());
+    if (!error.isEmpty()) {
+      m_app->dispToConsole(name + error, cancelled ? ccMainAppInterface::WRN_CONSOLE_MESSAGE
+                                                   : ccMainAppInterface::ERR_CONSOLE_MESSAGE);
+      if (cancelled) break;  // Cancel stops the remaining clouds too
+      continue;
+    }
+    for (const QString& w : out.warnings)
+      m_app->dispToConsole(name + w, ccMainAppInterface::WRN_CONSOLE_MESSAGE);
+    m_app->dispToConsole(name + out.summary, ccMainAppInterface::STD_CONSOLE_MESSAGE);
   }
   m_app->updateUI();
   m_app->refreshAll();
+}
+
+void NhnetPlugin::estimateNormals() {
+  const std::vector<ccPointCloud*> clouds = selectedClouds();
+  if (clouds.empty()) return;
+  nhcc::EstimateDialog dlg(normals_, m_app->getMainWindow());
+  if (!dlg.exec()) return;
+  normals_ = dlg.settings();
+  forEachCloud("normals", clouds, [this](ccPointCloud& cloud, ccProgressDialog* progress) {
+    nhcc::Outcome out = nhcc::estimate_cloud_normals(cloud, normals_, progress);
+    cloud.prepareDisplayForRefresh_recursive();
+    return out;
+  });
 }
 
 void NhnetPlugin::denoise() {
@@ -109,11 +109,7 @@ void NhnetPlugin::denoise() {
     return;
   }
   const std::vector<ccPointCloud*> clouds = selectedClouds();
-  if (clouds.empty()) {
-    m_app->dispToConsole("[NH-Net] select at least one point cloud",
-                         ccMainAppInterface::ERR_CONSOLE_MESSAGE);
-    return;
-  }
+  if (clouds.empty()) return;
   nhcc::DenoiseSettings initial = denoise_;
   if (initial.normals == "auto") {
     bool allHaveNormals = true;
@@ -123,32 +119,14 @@ void NhnetPlugin::denoise() {
   nhcc::DenoiseDialog dlg(initial, m_app->getMainWindow());
   if (!dlg.exec()) return;
   denoise_ = dlg.settings();
-
-  for (size_t i = 0; i < clouds.size(); ++i) {
-    ccPointCloud* cloud = clouds[i];
-    ccProgressDialog progress(true, m_app->getMainWindow());
-    progress.setMethodTitle(QString("NH-Net denoise: %1 (%2/%3)")
-                                .arg(cloud->getName()).arg(i + 1).arg(clouds.size()));
-    nhcc::Outcome out;
-    bool cancelled = false;
-    ccPointCloud* result = nullptr;
-    const QString error = nhcc::guarded(
-        [&] {
-          // The result is a new cloud next to the input, which stays as it was.
-          result = cloud->cloneThis();
-          if (!result) throw std::bad_alloc();
-          result->setName(cloud->getName() + ".denoised");
-          out = nhcc::denoise_cloud(*result, denoise_, &progress);
-        },
-        &cancelled);
-    if (error.isEmpty()) {
-      cloud->setEnabled(false);
-      m_app->addToDB(result);
-    } else {
-      delete result;
-    }
-    if (!report(m_app, "denoise", cloud, error, cancelled, out)) break;
-  }
-  m_app->updateUI();
-  m_app->refreshAll();
+  forEachCloud("denoise", clouds, [this](ccPointCloud& cloud, ccProgressDialog* progress) {
+    // The result is a new cloud next to the input, which stays as it was (hidden).
+    std::unique_ptr<ccPointCloud> result(cloud.cloneThis());
+    if (!result) throw std::bad_alloc();
+    result->setName(cloud.getName() + ".denoised");
+    nhcc::Outcome out = nhcc::denoise_cloud(*result, denoise_, progress);
+    cloud.setEnabled(false);
+    m_app->addToDB(result.release());
+    return out;
+  });
 }

@@ -7,6 +7,12 @@
 
 #include <ccStdPluginInterface.h>
 
+#include <functional>
+#include <vector>
+
+class ccPointCloud;
+class ccProgressDialog;
+
 class NhnetPlugin : public QObject, public ccStdPluginInterface {
   Q_OBJECT
   Q_INTERFACES(ccStdPluginInterface)
@@ -24,8 +30,12 @@ class NhnetPlugin : public QObject, public ccStdPluginInterface {
  private:
   void estimateNormals();
   void denoise();
-  /// Selected point clouds (meshes' vertices are not touched).
+  /// Selected point clouds (meshes' vertices are not touched); says so on the console if none.
   std::vector<ccPointCloud*> selectedClouds() const;
+  /// Runs `fn` on every cloud with its own progress dialog (Cancel stops the remaining clouds
+  /// too), behind nhcc::guarded; errors, warnings and summaries go to the console.
+  void forEachCloud(const QString& what, const std::vector<ccPointCloud*>& clouds,
+                    const std::function<nhcc::Outcome(ccPointCloud&, ccProgressDialog*)>& fn);
 
   QAction* estimateAction_ = nullptr;
   QAction* denoiseAction_ = nullptr;
