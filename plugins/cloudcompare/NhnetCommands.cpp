@@ -8,6 +8,7 @@
 #include <ccProgressDialog.h>
 
 #include <functional>
+#include <type_traits>
 
 namespace nhcc {
 
@@ -23,24 +24,17 @@ QString take_value(ccCommandLineInterface& cmd, const char* option) {
   return cmd.arguments().takeFirst();
 }
 
-int take_int(ccCommandLineInterface& cmd, const char* option) {
+/// Takes a number after `option` (an integer when T is int); throws naming the option otherwise.
+template <class T>
+T take_number(ccCommandLineInterface& cmd, const char* option) {
   const QString v = take_value(cmd, option);
   bool ok = false;
-  const int i = v.toInt(&ok);
+  const T x = std::is_integral<T>::value ? T(v.toInt(&ok)) : T(v.toDouble(&ok));
   if (!ok)
-    throw nhnet::InvalidOptions(std::string("-") + option + " needs an integer, got '" +
-                                v.toStdString() + "'");
-  return i;
-}
-
-double take_double(ccCommandLineInterface& cmd, const char* option) {
-  const QString v = take_value(cmd, option);
-  bool ok = false;
-  const double d = v.toDouble(&ok);
-  if (!ok)
-    throw nhnet::InvalidOptions(std::string("-") + option + " needs a number, got '" +
-                                v.toStdString() + "'");
-  return d;
+    throw nhnet::InvalidOptions(std::string("-") + option +
+                                (std::is_integral<T>::value ? " needs an integer" : " needs a number") +
+                                ", got '" + v.toStdString() + "'");
+  return x;
 }
 
 /// Consumes this command's options: `handle(name)` returns false for a name it does not know,
@@ -65,7 +59,7 @@ bool normals_option(ccCommandLineInterface& cmd, const QString& name, NormalsSet
   } else if (name == "SCALES") {
     s.scales = take_value(cmd, "SCALES");
   } else if (name == "THREADS") {
-    s.threads = take_int(cmd, "THREADS");
+    s.threads = take_number<int>(cmd, "THREADS");
   } else if (name == "MODEL") {
     s.model = take_value(cmd, "MODEL");
   } else {
@@ -118,7 +112,7 @@ bool CommandNormals::process(ccCommandLineInterface& cmd) {
       if (name != "ORIENT") return false;
       s.orient = orient_from_string(take_value(cmd, "ORIENT"));
       if (s.orient == Orient::Viewpoint)
-        for (double& v : s.viewpoint) v = take_double(cmd, "ORIENT viewpoint");
+        for (double& v : s.viewpoint) v = take_number<double>(cmd, "ORIENT viewpoint");
       return true;
     });
   });
@@ -138,9 +132,9 @@ bool CommandDenoise::process(ccCommandLineInterface& cmd) {
       // -METHOD would be ambiguous here: -NORMALS names the method that estimates the normals.
       if (name != "METHOD" && normals_option(cmd, name, s.estimate)) return true;
       if (name == "ITERATIONS") {
-        s.iterations = take_int(cmd, "ITERATIONS");
+        s.iterations = take_number<int>(cmd, "ITERATIONS");
       } else if (name == "RADIUS") {
-        s.radius = take_double(cmd, "RADIUS");
+        s.radius = take_number<double>(cmd, "RADIUS");
       } else if (name == "NORMALS") {
         s.normals = take_value(cmd, "NORMALS").toLower();
       } else {
