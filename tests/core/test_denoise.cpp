@@ -48,15 +48,6 @@ double quantile(std::vector<double> v, double q) {
   return v[size_t(q * double(v.size() - 1))];
 }
 
-/// Flips each row of `normals` with probability 1/2.
-Normals random_signs(Normals normals, unsigned seed) {
-  std::mt19937 rng(seed);
-  std::bernoulli_distribution flip(0.5);
-  for (Eigen::Index i = 0; i < normals.rows(); ++i)
-    if (flip(rng)) normals.row(i) *= -1.0;
-  return normals;
-}
-
 /// 4000 points on [-1,1]^2 (grid step ~0.032) with Gaussian height noise 0.01 (~0.3 steps).
 fixtures::Fixture noisy_plane() {
   auto f = fixtures::plane(4000, 3);
@@ -70,7 +61,7 @@ fixtures::Fixture noisy_plane() {
 
 TEST(Denoise, NoisyPlaneMovesOntoThePlane) {
   const auto f = noisy_plane();
-  const DenoiseResult r = denoise_points(f.points, random_signs(f.normals, 5));
+  const DenoiseResult r = denoise_points(f.points, fixtures::random_signs(f.normals, 5));
   EXPECT_EQ(r.moved, 4000);
   EXPECT_EQ(r.skipped, 0);
   EXPECT_EQ(r.isolated, 0);
@@ -92,7 +83,7 @@ TEST(Denoise, NoisyPlaneMovesOntoThePlane) {
 TEST(Denoise, InvariantToNormalSigns) {
   const auto f = noisy_plane();
   const DenoiseResult a = denoise_points(f.points, f.normals);
-  const DenoiseResult b = denoise_points(f.points, random_signs(f.normals, 6));
+  const DenoiseResult b = denoise_points(f.points, fixtures::random_signs(f.normals, 6));
   const DenoiseResult c = denoise_points(f.points, -f.normals);
   // Flipping n_j flips its alignment sign too: the arithmetic is the same up to round-off.
   EXPECT_LT((a.points - b.points).cwiseAbs().maxCoeff(), 1e-12);
@@ -103,7 +94,7 @@ TEST(Denoise, CubeFacesGetCloserAndEdgesStaySharp) {
   // 30k points on the cube surface (area 24, grid step ~0.028), noise 0.01 per coordinate;
   // exact face normals with random signs.
   const auto f = fixtures::cube(30000, 0.01, 8);
-  const DenoiseResult r = denoise_points(f.points, random_signs(f.normals, 9));
+  const DenoiseResult r = denoise_points(f.points, fixtures::random_signs(f.normals, 9));
   std::vector<double> b_face, a_face, b_edge, a_edge;
   for (Eigen::Index i = 0; i < f.points.rows(); ++i) {
     const Eigen::Vector3d p = f.points.row(i).transpose(), q = r.points.row(i).transpose();
