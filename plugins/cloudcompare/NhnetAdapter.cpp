@@ -59,10 +59,6 @@ Prepared prepare(const NormalsSettings& s) {
   p.options.scales = parse_scales(s.scales);
   if (s.threads < 0) throw nhnet::InvalidOptions("threads must be >= 0 (0 = all cores)");
   p.options.run.threads = s.threads;
-  if (!orient_available(s.orient))
-    throw nhnet::InvalidOptions(
-        std::string("orientation '") + kOrientNames[int(s.orient)] +
-        "' needs nhnet's orientation stage, which this build does not have yet (use keep or none)");
   if (p.options.method == nhnet::Method::Pca && !p.options.scales.empty())
     p.warnings << "scales are ignored by the pca method";
   if (!s.model.isEmpty() && !uses_model(p.options.method))
@@ -108,14 +104,12 @@ void store_normals(ccPointCloud& cloud, const nhnet::Normals& normals) {
   cloud.showNormals(true);
 }
 
-#if NHNET_CC_HAS_DENOISE
 nhnet::ProgressCallback narrow(const nhnet::ProgressCallback& cb, double begin, double end) {
   if (!cb) return cb;
   return [cb, begin, end](double f, const std::string& stage) {
     return cb(begin + (end - begin) * f, stage);
   };
 }
-#endif
 
 QString join(const std::vector<int>& v) {
   QStringList parts;
@@ -190,8 +184,6 @@ bool method_uses_model(const QString& name) {
   return false;
 }
 
-bool orient_available(Orient orient) { return orient != Orient::Mst && orient != Orient::Viewpoint; }
-
 bool denoise_available() { return NHNET_CC_HAS_DENOISE != 0; }
 
 Outcome estimate_cloud_normals(ccPointCloud& cloud, const NormalsSettings& settings,
@@ -199,25 +191,49 @@ Outcome estimate_cloud_normals(ccPointCloud& cloud, const NormalsSettings& setti
   Prepared p = prepare(settings);
   Outcome out;
   out.warnings = p.warnings;
-  bool keep = settings.orient == Orient::Keep || (settings.orient == Orient::Auto && cloud.hasNormals());
-  if (keep && !cloud.hasNormals()) {
-    out.warnings << "orientation keep: the cloud has no normals, so the signs stay arbitrary";
-    keep = false;
+  nhnet::OrientOptions orient;
+  orient.run.threads = settings.threads;
+  orient.viewpoint = Eigen::Vector3d(settings.viewpoint[0], settings.viewpoint[1], settings.viewpoint[2]);
+  switch (settings.orient) {
+    case Orient::Auto:
+      orient.mode = cloud.hasNormals() ? nhnet::OrientMode::Keep : nhnet::OrientMode::Mst;
+      break;
+    case Orient::Keep: orient.mode = nhnet::OrientMode::Keep; break;
+    case Orient::None: orient.mode = nhnet::OrientMode::None; break;
+    case Orient::Mst: orient.mode = nhnet::OrientMode::Mst; break;
+    case Orient::Viewpoint: orient.mode = nhnet::OrientMode::Viewpoint; break;
   }
+  if (orient.mode == nhnet::OrientMode::Keep && !cloud.hasNormals()) {
+    out.warnings << "orientation keep: the cloud has no normals, so the signs stay arbitrary";
+    orient.mode = nhnet::OrientMode::None;
+  }
+  const bool orienting = orient.mode != nhnet::OrientMode::None;
 
   const nhnet::Points pts = copy_points(cloud);
+  const nhnet::Normals reference =
+      orient.mode == nhnet::OrientMode::Keep ? copy_normals(cloud) : nhnet::Normals();
   nhnet::EstimateResult res;
+  nhnet::OrientResult ores;
   run_with_progress(dialog, [&](const nhnet::ProgressCallback& cb) {
-    res = run_estimate(pts, p.options, cb);
+    const double split = orienting ? 0.85 : 1.0;
+    res = run_estimate(pts, p.options, narrow(cb, 0, split));
+    if (!orienting) return;
+    orient.run.progress = narrow(cb, split, 1);
+    ores = nhnet::orient_normals(pts, res.normals, orient, reference);
   });
   out.warnings << to_qt(res.warnings);
-
-  int64_t flipped = 0;
-  if (keep) flipped = nhnet::orient_like(res.normals, copy_normals(cloud));
+  if (ores.unoriented > 0)
+    out.warnings << QString("orientation %1: %2 normals could not be oriented (left as estimated)")
+                        .arg(nhnet::to_string(orient.mode))
+                        .arg(ores.unoriented);
   store_normals(cloud, res.normals);
 
   out.summary = describe(res, p.options.method, pts.rows()) +
-                (keep ? QString(", orient keep (%1 flipped)").arg(flipped) : QString(", orient none"));
+                QString(", orient %1").arg(nhnet::to_string(orient.mode));
+  if (orienting) out.summary += QString(" (%1 flipped").arg(ores.flipped);
+  if (orient.mode == nhnet::OrientMode::Mst)
+    out.summary += QString(", %1 components").arg(ores.components);
+  if (orienting) out.summary += ")";
   return out;
 }
 

@@ -6,6 +6,7 @@
 
 #include "nhnet/errors.hpp"
 #include "nhnet/estimate.hpp"
+#include "nhnet/orient.hpp"
 #include "nhnet/progress.hpp"
 
 #include <QString>
@@ -27,19 +28,17 @@ namespace nhcc {
 
 /// How the signs of estimated normals are chosen.
 enum class Orient {
-  Auto,       ///< "keep" when the cloud already has normals, "none" otherwise
+  Auto,       ///< "keep" when the cloud already has normals, "mst" otherwise (the core's rule)
   Keep,       ///< flip each normal to agree with the cloud's existing normal at that point
   None,       ///< leave the estimator's arbitrary signs
-  Mst,        ///< minimum-spanning-tree propagation (needs the core's orientation stage)
-  Viewpoint,  ///< towards a sensor position (needs the core's orientation stage)
+  Mst,        ///< minimum-spanning-tree propagation per connected part (outward when closed)
+  Viewpoint,  ///< towards a sensor position
 };
 
 /// "auto", "keep", "none", "mst", "viewpoint", in Orient's order.
 QStringList orient_names();
 /// Parses a name of orient_names() (case-insensitive); throws nhnet::InvalidOptions otherwise.
 Orient orient_from_string(const QString& name);
-/// Whether this build's core can run the given orientation.
-bool orient_available(Orient orient);
 
 /// Names of the core's estimators, the core's default first. Adding a method to the plugin (the
 /// GUI list and -METHOD) is one line in NhnetAdapter.cpp.

@@ -10,7 +10,6 @@
 #include <QLineEdit>
 #include <QPushButton>
 #include <QSpinBox>
-#include <QStandardItemModel>
 #include <QVBoxLayout>
 
 #include <limits>
@@ -58,15 +57,10 @@ EstimateDialog::EstimateDialog(const NormalsSettings& initial, QWidget* parent) 
   orient_ = new QComboBox(this);
   const QStringList names = orient_names();
   orient_->addItems(names);
-  auto* model = qobject_cast<QStandardItemModel*>(orient_->model());
-  for (int i = 0; i < names.size(); ++i) {
-    if (!orient_available(Orient(i)) && model) {
-      model->item(i)->setEnabled(false);
-      model->item(i)->setToolTip("needs nhnet's orientation stage (not in this build)");
-    }
-  }
   orient_->setCurrentIndex(int(initial.orient));
-  orient_->setToolTip("auto: keep the cloud's signs if it has normals, none otherwise");
+  orient_->setToolTip("auto: keep the cloud's signs if it has normals, MST otherwise; mst: "
+                      "consistent signs over each connected part (outward on closed surfaces); "
+                      "viewpoint: towards the sensor position below");
   form->addRow("Orientation", orient_);
 
   auto* vp = new QHBoxLayout;

@@ -106,6 +106,39 @@ case_orient_keep() {
     fail "orient keep left normals pointing against the input's"
 }
 
+# -ORIENT mst (and the default, auto = mst for a cloud without normals) orients a closed sphere
+# outward; -ORIENT viewpoint 0 0 0 turns every normal towards the centre. All points must agree:
+# the sphere is smooth and well sampled, so a single wrong sign is a bug.
+case_orient_mst_viewpoint() {
+  "$PY" -c '
+import numpy as np
+rng = np.random.default_rng(3)
+p = rng.normal(size=(3000, 3)); p /= np.linalg.norm(p, axis=1, keepdims=True)
+np.savetxt("sphere.xyz", p + [5.0, -2.0, 1.0], fmt="%.7f")'
+  local check='
+import sys, importlib.util, numpy as np
+spec = importlib.util.spec_from_file_location("c", sys.argv[1]); c = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(c)
+p, n = c.read(sys.argv[2]); want = float(sys.argv[3])
+s = np.sign(((p - [5.0, -2.0, 1.0]) * n).sum(1))
+bad = int((s != want).sum())
+side = "outward" if want > 0 else "inward"
+print(f"{sys.argv[2]}: {bad} of {len(s)} normals not pointing {side}")
+sys.exit(1 if bad else 0)'
+  cc -O sphere.xyz -NHNET_NORMALS -METHOD pca -ORIENT mst -SAVE_CLOUDS FILE mst.ply
+  expect_rc 0
+  log_has "orient mst ("
+  "$PY" -c "$check" "$COMPARE" mst.ply 1 || fail "mst did not orient the sphere outward"
+  cc -O sphere.xyz -NHNET_NORMALS -METHOD pca -SAVE_CLOUDS FILE auto.ply
+  expect_rc 0
+  log_has "orient mst ("
+  "$PY" -c "$check" "$COMPARE" auto.ply 1 || fail "the default orientation is not outward"
+  cc -O sphere.xyz -NHNET_NORMALS -METHOD pca -ORIENT viewpoint 5 -2 1 -SAVE_CLOUDS FILE vp.ply
+  expect_rc 0
+  log_has "orient viewpoint ("
+  "$PY" -c "$check" "$COMPARE" vp.ply -1 || fail "viewpoint did not turn the normals to the centre"
+}
+
 # Bad options: a clear one-line error naming the option, exit 1, nothing saved.
 case_bad_options() {
   head -n 2000 "$SAMPLE" >small.xyz
@@ -126,6 +159,9 @@ case_bad_options() {
   cc -O "$SAMPLE" -NHNET_NORMALS -METHOD
   expect_rc 1
   log_has "missing value after -METHOD"
+  cc -O "$SAMPLE" -NHNET_NORMALS -ORIENT viewpoint 1 2
+  expect_rc 1
+  log_has "missing value after -ORIENT viewpoint"
   # An option this command does not know is left to CloudCompare, which refuses it.
   cc -O "$SAMPLE" -NHNET_NORMALS -BOGUS_OPTION
   expect_rc 1
