@@ -330,6 +330,8 @@ void run_with_progress(ccProgressDialog* dialog,
     }
     return !cancel.load();
   };
+  // Modal: while the worker runs, nothing else in CloudCompare can delete or edit the cloud.
+  dialog->setWindowModality(Qt::ApplicationModal);
   dialog->setRange(0, 100);
   dialog->setValue(0);
   dialog->show();
