@@ -21,7 +21,9 @@ PKGS=(
   # MeshLab plugin: the stock MeshLab, Qt5 and GLEW headers it compiles against, dpkg-dev to
   # unpack MeshLab's source package (its headers), xvfb/xauth to run meshlabserver headless
   meshlab qtbase5-dev libqt5opengl5-dev libglew-dev dpkg-dev xvfb xauth
-  # the plugin's README screenshots (plugins/meshlab/screenshots.sh): clicks and screen grabs
+  # CloudCompare plugin: the stock CloudCompare (its headers: source package, as MeshLab's)
+  cloudcompare
+  # the plugins' README screenshots (plugins/meshlab/screenshots.sh, scripts/cc-screenshots.sh)
   xdotool imagemagick
 )
 
@@ -48,3 +50,4 @@ fi
 # git). Enables deb-src entries derived from this machine's own apt sources when there are none.
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 bash scripts/apt-source.sh meshlab deps-src >/dev/null
+bash scripts/apt-source.sh cloudcompare deps-src >/dev/null
