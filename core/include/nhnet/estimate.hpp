@@ -41,8 +41,8 @@ struct EstimateOptions {
   /// MFPS selection (see mfps.hpp): width factor of the point term of Eq. 4, and the two-face
   /// posterior exponent (0 = the paper's argmax). Defaults measured on the training split
   /// (tools/README.md).
-  double mfps_point_sigma_factor = 3;
-  double mfps_posterior_beta = 12;
+  double mfps_point_sigma_factor = 4;
+  double mfps_posterior_beta = 24;
   /// Threads (0 = all cores) and progress/cancel callback.
   RunContext run;
 };
