@@ -29,6 +29,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from itertools import zip_longest
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
@@ -63,7 +64,7 @@ PROTOCOL_K: dict[str, list[int]] = {
 }
 PAPER_CATEGORIES = ["SharpFeature", "RichFeature", "SmoothSurface", "BigNoise"]
 QUICK_POINTS = 10000
-FULL_POINTS = 20000
+FULL_POINTS = 20000  # paper: 10k-100k per cloud; --points for more
 VCM_OFFSET_SPACINGS = 5.0  # CGAL VCM offset radius, in average spacings (notes/benchmark.md)
 
 
@@ -281,7 +282,11 @@ def build_report(records: list[dict], meta: dict) -> tuple[list[str], dict]:
           f"- date: {meta['date']}", f"- machine: {meta['machine']}",
           f"- command: `{meta['command']}`", f"- commit: {meta['commit']}",
           f"- versions: {meta['versions']}",
-          f"- clouds: {meta['clouds']} ({meta['points']} points each), threads per method: "
+          f"- clouds: {meta['clouds']}"
+          + (f" of the {meta['clouds_selected']} selected (time budget reached; every category "
+             f"and model covered first, see bench/README.md)"
+             if meta["clouds"] < meta["clouds_selected"] else "")
+          + f" ({meta['points']} points each), threads per method: "
           f"{meta['threads']}, wall {meta['wall_s']:.0f} s",
           "", "Errors are unoriented angles in degrees (nhnet metrics), averaged over the "
           "clouds; PGPx = % of points under x°. Time: the estimator call only (wall, mean per "
@@ -436,6 +441,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--open3d-python", default=None,
                     help="python that can import open3d (default: build/bench-venv/bin/python, "
                          "then this python)")
+    ap.add_argument("--max-minutes", type=float, default=None,
+                    help="start no new cloud after this many minutes; the tables then cover the "
+                         "clouds done (say how many) -- the largest part that fits a time budget")
+    ap.add_argument("--resume", action="store_true",
+                    help="keep the records already in DIR/records.jsonl (an interrupted run "
+                         "with the same selection) and run only what is missing")
     ap.add_argument("--timeout", type=float, default=900.0,
                     help="seconds one method may take on one cloud (default 900)")
     a = ap.parse_args(argv)
@@ -508,13 +519,38 @@ def main(argv: list[str] | None = None) -> int:
     if not clouds:
         print("nhnet_bench: no cloud matches the selection", file=sys.stderr)
         return 2
+    # Order: round-robin over the categories, and inside a category pass p gives model i its
+    # noise level (i + p) mod L, so a run cut short (--max-minutes) has covered every category
+    # and model, with every level spread over the models.
+    by_cat: dict[str, list[dict]] = {}
+    for c in clouds:
+        by_cat.setdefault(c["category"], []).append(c)
+    for cat, group in by_cat.items():
+        mods = list(dict.fromkeys(c["model"] for c in group))
+        levs = sorted({(c["variant"], c["noise_percent"]) for c in group})
+        group.sort(key=lambda c: ((levs.index((c["variant"], c["noise_percent"]))
+                                   - mods.index(c["model"])) % len(levs),
+                                  mods.index(c["model"])))
+    clouds = [c for group in zip_longest(*by_cat.values()) for c in group if c is not None]
     meta["clouds"] = len(clouds)
     log(f"{len(clouds)} clouds x {len(methods)} methods, {a.threads} threads per method")
 
+    # Every record is appended to records.jsonl as soon as it exists, so --resume can continue.
+    jsonl = out / "records.jsonl"
     records: list[dict] = []
-    with tempfile.TemporaryDirectory(prefix="nhnet-bench-") as tmp:
+    if a.resume and jsonl.exists():
+        records = [json.loads(x) for x in jsonl.read_text().splitlines() if x.strip()]
+        log(f"resume: {len(records)} records from {jsonl}")
+    else:
+        jsonl.write_text("")
+    done = {(r["cloud"], r["category"], r["method"], r["k"]) for r in records}
+    with tempfile.TemporaryDirectory(prefix="nhnet-bench-") as tmp, open(jsonl, "a") as jfh:
         runner = Runner(worker, cli, py, a.threads, a.timeout, Path(tmp))
         for i, c in enumerate(clouds, 1):
+            if a.max_minutes is not None and time.perf_counter() - t_start > 60 * a.max_minutes:
+                log(f"time budget of {a.max_minutes:g} min reached: stopping after "
+                    f"{i - 1} of {len(clouds)} clouds")
+                break
             gt = data / "benchmark" / next(f for f in c["files"] if f.endswith(".gt.xyzn"))
             ks = PROTOCOL_K[c["category"]]
             line = []
@@ -523,16 +559,25 @@ def main(argv: list[str] | None = None) -> int:
                 if m == "mfps" and len(ks) > 1:
                     continue  # paper scales only where the protocol gives one K
                 for k in (ks if needs_k else [0]):
+                    if (c["name"], c["category"], m, k) in done:
+                        continue
                     rec = runner.run(m, k, gt, c["category"])
                     rec.update(cloud=c["name"], category=c["category"], model=c["model"],
                                noise=c["noise_percent"], variant=c["variant"],
                                points=c["points"])
                     records.append(rec)
+                    jfh.write(json.dumps(rec) + "\n")
+                    jfh.flush()
                     line.append(f"{m}{'@' + str(k) if needs_k and len(ks) > 1 else ''} "
                                 + ("ERR" if "error" in rec else
                                    f"{rec['mean_deg']:.1f}°/{rec['time_s']:.2f}s"))
             log(f"[{i}/{len(clouds)}] {c['category']}/{c['name']}: " + ", ".join(line))
     meta["wall_s"] = time.perf_counter() - t_start
+    sel = {c["name"] + "|" + c["category"] for c in clouds}
+    records = [r for r in records
+               if r["cloud"] + "|" + r["category"] in sel and r["method"] in methods]
+    meta["clouds_selected"] = len(clouds)
+    meta["clouds"] = len({(r["cloud"], r["category"]) for r in records})
     for r in records:
         if "error" in r and r["method"] != "open3d" or ("error" in r and py):
             log(f"error: {r['method']} k={r['k']} on {r['cloud']}: {r['error']}")
