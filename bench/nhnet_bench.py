@@ -286,8 +286,11 @@ def build_report(records: list[dict], meta: dict) -> tuple[list[str], dict]:
           + (f" of the {meta['clouds_selected']} selected (time budget reached; every category "
              f"and model covered first, see bench/README.md)"
              if meta["clouds"] < meta["clouds_selected"] else "")
-          + f" ({meta['points']} points each), threads per method: "
-          f"{meta['threads']}, wall {meta['wall_s']:.0f} s",
+          + f" ({meta['points']} points each; models: "
+          + "; ".join(f"{c} {len(m)}" for c, m in meta["models"].items() if m)
+          + f"), threads per method: "
+          f"{meta['threads']}, method processes {meta['children_s']:.0f} s in all (wall of "
+          f"this invocation {meta['wall_s']:.0f} s)",
           "", "Errors are unoriented angles in degrees (nhnet metrics), averaged over the "
           "clouds; PGPx = % of points under x°. Time: the estimator call only (wall, mean per "
           "cloud), `× PCL time` = geometric mean over clouds of time / PCL "
@@ -577,6 +580,9 @@ def main(argv: list[str] | None = None) -> int:
     records = [r for r in records
                if r["cloud"] + "|" + r["category"] in sel and r["method"] in methods]
     meta["clouds_selected"] = len(clouds)
+    meta["children_s"] = sum(r.get("child_wall_s", 0.0) for r in records)
+    meta["models"] = {cat: sorted({r["model"] for r in records if r["category"] == cat})
+                      for cat in categories}
     meta["clouds"] = len({(r["cloud"], r["category"]) for r in records})
     for r in records:
         if "error" in r and r["method"] != "open3d" or ("error" in r and py):
