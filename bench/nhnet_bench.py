@@ -490,7 +490,7 @@ def main(argv: list[str] | None = None) -> int:
 
     method_notes = {}
     py = None
-    o3d_version = "not available"
+    o3d_version = "not available" if "open3d" in methods else "not run (not in --methods)"
     if "open3d" in methods:
         py, info = find_open3d_python(a.open3d_python, log)
         if py:
