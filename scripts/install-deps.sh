@@ -16,6 +16,9 @@ PKGS=(
   libpcl-dev libcgal-dev
   # meshes the benchmark and training data are sampled from
   libcgal-demo
+  # benchmark: parallel CGAL jet fitting (TBB), its chart (matplotlib), the Open3D venv
+  # (bench/setup-open3d.sh makes it with python3-venv)
+  libtbb-dev python3-matplotlib python3-venv
   # python side: bindings, data generation, training
   python3-dev python3-numpy pybind11-dev
   # MeshLab plugin: the stock MeshLab, Qt5 and GLEW headers it compiles against, dpkg-dev to
