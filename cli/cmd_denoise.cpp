@@ -144,11 +144,7 @@ Command add_denoise_command(CLI::App& parent) {
   auto args = std::make_shared<DenoiseArgs>();
   CLI::App* sub = parent.add_subcommand(
       "denoise", "Move noisy points onto their surface, guided by normals (paper Eq. 9)");
-  sub->add_option("IN", args->in, "Input cloud (.ply, .pcd, .xyz/.xyzn/.txt; content is sniffed)")
-      ->required();
-  sub->add_option("OUT", args->out,
-                  "Output cloud; the format follows the extension (.ply, .pcd, .xyz/.xyzn/.txt)")
-      ->required();
+  add_in_out(sub, args->in, args->out);
   sub->add_option("--iterations", args->iterations, "Update steps, >= 1 (default: 20)")
       ->type_name("N");
   sub->add_option("--normals-from", args->normals_from,
@@ -165,11 +161,7 @@ Command add_denoise_command(CLI::App& parent) {
       ->type_name("N");
   sub->add_option("--seed", args->seed, "Seed of MFPS's random plane samples (default: 1)")
       ->type_name("S");
-  sub->add_flag("--ascii", args->ascii, "Write PLY/PCD as ascii instead of binary");
-  sub->add_flag("--overwrite", args->overwrite, "Replace OUT if it exists (never the input)");
-  sub->add_flag("-q,--quiet", args->quiet,
-                "No progress bar and no summary line (warnings and errors still go to stderr)");
-  sub->add_flag("--json", args->json, "Print the summary as one JSON object on stdout");
+  add_output_flags(sub, args->ascii, args->overwrite, args->quiet, args->json);
   sub->footer(
       "Each point moves towards the planes of its neighbours within the ball (normals and\n"
       "neighbourhoods fixed, computed once), which removes noise and keeps sharp edges when the\n"

@@ -134,11 +134,7 @@ Command add_estimate_command(CLI::App& parent) {
   auto args = std::make_shared<EstimateArgs>();
   CLI::App* sub = parent.add_subcommand(
       "estimate", "Estimate unit normals of a point cloud and write the cloud with them");
-  sub->add_option("IN", args->in, "Input cloud (.ply, .pcd, .xyz/.xyzn/.txt; content is sniffed)")
-      ->required();
-  sub->add_option("OUT", args->out,
-                  "Output cloud; the format follows the extension (.ply, .pcd, .xyz/.xyzn/.txt)")
-      ->required();
+  add_in_out(sub, args->in, args->out);
   sub->add_option("-m,--method", args->method, "pca | mfps (default: mfps)")->type_name("NAME");
   sub->add_option("-k,--k", args->k,
                   "PCA neighbourhood size, >= 3 (default: chosen from the noise level)")
@@ -156,11 +152,7 @@ Command add_estimate_command(CLI::App& parent) {
       ->type_name("MODE");
   sub->add_option("--seed", args->seed, "Seed of MFPS's random plane samples (default: 1)")
       ->type_name("S");
-  sub->add_flag("--ascii", args->ascii, "Write PLY/PCD as ascii instead of binary");
-  sub->add_flag("--overwrite", args->overwrite, "Replace OUT if it exists (never the input)");
-  sub->add_flag("-q,--quiet", args->quiet,
-                "No progress bar and no summary line (warnings and errors still go to stderr)");
-  sub->add_flag("--json", args->json, "Print the summary as one JSON object on stdout");
+  add_output_flags(sub, args->ascii, args->overwrite, args->quiet, args->json);
   sub->footer(
       "Orientation: by default normals agree with the input's normals when it has some, else\n"
       "they are made consistent by MST over each connected part (outward on closed surfaces;\n"

@@ -4,6 +4,8 @@
 #include "nhnet/errors.hpp"
 #include "nhnet/io.hpp"
 
+#include <CLI/CLI.hpp>
+
 #include <unistd.h>
 
 #include <algorithm>
@@ -128,6 +130,24 @@ std::vector<std::string> cli_args(int argc, char** argv) {
     }
   std::reverse(args.begin(), args.end());
   return args;
+}
+
+// ---- shared arguments ----------------------------------------------------------------------------
+
+void add_in_out(CLI::App* sub, std::string& in, std::string& out) {
+  sub->add_option("IN", in, "Input cloud (.ply, .pcd, .xyz/.xyzn/.txt; content is sniffed)")
+      ->required();
+  sub->add_option("OUT", out,
+                  "Output cloud; the format follows the extension (.ply, .pcd, .xyz/.xyzn/.txt)")
+      ->required();
+}
+
+void add_output_flags(CLI::App* sub, bool& ascii, bool& overwrite, bool& quiet, bool& json) {
+  sub->add_flag("--ascii", ascii, "Write PLY/PCD as ascii instead of binary");
+  sub->add_flag("--overwrite", overwrite, "Replace OUT if it exists (never the input)");
+  sub->add_flag("-q,--quiet", quiet,
+                "No progress bar and no summary line (warnings and errors still go to stderr)");
+  sub->add_flag("--json", json, "Print the summary as one JSON object on stdout");
 }
 
 // ---- files ---------------------------------------------------------------------------------------

@@ -57,6 +57,13 @@ nhnet::OrientOptions parse_orient(const std::string& text);
 /// the positional arguments that follow it.
 std::vector<std::string> cli_args(int argc, char** argv);
 
+// ---- shared arguments ----------------------------------------------------------------------------
+
+/// The positional IN OUT of a command that reads one cloud and writes one.
+void add_in_out(CLI::App* sub, std::string& in, std::string& out);
+/// --ascii, --overwrite, -q/--quiet, --json of a command that writes a cloud.
+void add_output_flags(CLI::App* sub, bool& ascii, bool& overwrite, bool& quiet, bool& json);
+
 // ---- files ---------------------------------------------------------------------------------------
 
 /// Output path checks done before reading anything (nhnet::OutputError, exit 6): OUT is the

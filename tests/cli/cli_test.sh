@@ -59,6 +59,19 @@ only_error_line() {
   [[ $(wc -l <stderr.txt) == 1 ]] || fail "expected a single stderr line"
 }
 
+# usage_errors CMD IN OUT "ARGS"...: each ARGS string (word-split) is exit 2 with a single error
+# line and no OUT.
+usage_errors() {
+  local cmd=$1 in=$2 out=$3 args
+  shift 3
+  for args in "$@"; do
+    # shellcheck disable=SC2086
+    expect 2 "$cmd" "$in" "$out" $args
+    only_error_line
+    no_file "$out"
+  done
+}
+
 no_file() { [[ ! -e $1 ]] || fail "$1 exists but should not"; }
 
 no_temp_files() {
@@ -335,13 +348,7 @@ case_bad_parameters() {
     "--scales 2,50" "--scales 50,,100" "--scales ,50" "--scales -5" "--threads -1"
     "--threads two" "--method foo" "--orient sideways" "--seed -1" "--seed x"
   )
-  local args
-  for args in "${bad[@]}"; do
-    # shellcheck disable=SC2086
-    expect 2 estimate in.xyz out.ply $args
-    only_error_line
-    no_file out.ply
-  done
+  usage_errors estimate in.xyz out.ply "${bad[@]}"
   expect 2 estimate in.xyz out.unknown
   only_error_line out.unknown
   expect 2 estimate in.xyz out
@@ -533,13 +540,7 @@ case_denoise_io_rules() {
   gen_noisy_sphere 500 15 0.01 in.xyz
   local -a bad=("--iterations 0" "--iterations x" "--radius 0" "--radius -1" "--radius abc"
     "--normals-from foo" "--threads -1")
-  local args
-  for args in "${bad[@]}"; do
-    # shellcheck disable=SC2086
-    expect 2 denoise in.xyz out.xyz $args
-    only_error_line
-    no_file out.xyz
-  done
+  usage_errors denoise in.xyz out.xyz "${bad[@]}"
   expect 2 denoise in.xyz out.unknown
   only_error_line out.unknown
   expect 6 denoise in.xyz in.xyz --overwrite
