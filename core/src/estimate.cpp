@@ -80,6 +80,7 @@ EstimateResult estimate_normals(const Points& points, const EstimateOptions& opt
   const Eigen::Index n = points.rows();
   res.normals.setConstant(n, 3, std::numeric_limits<double>::quiet_NaN());
   res.valid.assign(size_t(n), 0);
+  res.curvature.setConstant(n, std::numeric_limits<double>::quiet_NaN());
 
   // Finite points only: a non-finite point neither gets a normal nor disturbs its neighbours.
   std::vector<int64_t> finite;
@@ -163,6 +164,7 @@ EstimateResult estimate_normals(const Points& points, const EstimateOptions& opt
     if (nrm.allFinite() && nrm.squaredNorm() > 0.5) {
       res.normals.row(finite[size_t(i)]) = nrm.normalized();
       res.valid[size_t(finite[size_t(i)])] = 1;
+      res.curvature[finite[size_t(i)]] = pca.variation[i];
     }
   }
   res.failed = int64_t(std::count(res.valid.begin(), res.valid.end(), uint8_t(0)));

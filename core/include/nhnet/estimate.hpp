@@ -52,6 +52,9 @@ struct EstimateResult {
   std::vector<uint8_t> valid;
   /// Number of zeros in `valid`.
   int64_t failed = 0;
+  /// N surface variations lambda_min / (lambda_1 + lambda_2 + lambda_3) of each point's PCA
+  /// neighbourhood (k_used points), in [0, 1/3]: what PCL calls "curvature". NaN where failed.
+  Eigen::VectorXd curvature;
   /// Points classified as candidates near sharp features (MFPS only).
   int64_t candidates = 0;
   /// Estimated noise level: residual bandwidth / average point spacing (dimensionless).
