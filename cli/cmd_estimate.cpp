@@ -1,5 +1,5 @@
-// nhnet-cli estimate IN OUT: read a cloud, estimate unoriented normals (PCA or MFPS), optionally
-// flip them to agree with the input's normals, write the cloud with its extra properties.
+// nhnet-cli estimate IN OUT: read a cloud, estimate normals (PCA or MFPS), orient them (keep the
+// input's signs / towards a viewpoint / MST / none), write the cloud with its extra properties.
 // Every check that can fail cheaply (parameters, output path) runs before any reading/computing.
 #include "common.hpp"
 
@@ -7,20 +7,14 @@
 #include "nhnet/errors.hpp"
 #include "nhnet/estimate.hpp"
 #include "nhnet/io.hpp"
+#include "nhnet/orient.hpp"
 
 #include <CLI/CLI.hpp>
 
-#include <unistd.h>
-
-#include <cerrno>
 #include <cstdio>
-#include <cstring>
-#include <filesystem>
 #include <iostream>
 #include <memory>
 #include <sstream>
-
-namespace fs = std::filesystem;
 
 namespace nhcli {
 
@@ -32,37 +26,10 @@ struct EstimateArgs {
   std::string k;  // empty = auto
   std::string scales = "auto";
   std::string threads = "0";
-  std::string orient;  // empty = keep when the input has normals, none otherwise
+  std::string orient;  // empty = keep when the input has normals, mst otherwise
   std::string seed = "1";
   bool ascii = false, overwrite = false, quiet = false, json = false;
 };
-
-/// Output path checks (exit 6) done before reading anything.
-void check_output(const std::string& in, const std::string& out, bool overwrite) {
-  std::error_code ec;
-  const fs::path out_path(out), in_path(in);
-  const fs::file_status st = fs::status(out_path, ec);
-  if (fs::exists(st)) {
-    if (fs::is_directory(st)) throw nhnet::OutputError(out + ": is a directory");
-    std::error_code ec2;
-    if (fs::exists(in_path, ec2) && fs::equivalent(in_path, out_path, ec2) && !ec2)
-      throw nhnet::OutputError("refusing to overwrite the input " + in +
-                               " (choose another output path)");
-    if (!overwrite)
-      throw nhnet::OutputError(out + " already exists (use --overwrite to replace it)");
-  }
-  fs::path dir = out_path.parent_path();
-  if (dir.empty()) dir = ".";
-  const fs::file_status dst = fs::status(dir, ec);
-  if (!fs::exists(dst))
-    throw nhnet::OutputError("cannot write " + out + ": directory " + dir.string() +
-                             " does not exist");
-  if (!fs::is_directory(dst))
-    throw nhnet::OutputError("cannot write " + out + ": " + dir.string() + " is not a directory");
-  if (::access(dir.c_str(), W_OK | X_OK) != 0)
-    throw nhnet::OutputError("cannot write " + out + ": directory " + dir.string() + ": " +
-                             std::strerror(errno));
-}
 
 std::string join(const std::vector<int>& v, const char* sep) {
   std::string s;
@@ -78,11 +45,10 @@ int run_estimate(const EstimateArgs& a) {
   opt.scales = parse_scales(a.scales);
   opt.run.threads = parse_int("--threads", a.threads, 0);
   opt.seed = parse_u64("--seed", a.seed);
-  if (!a.orient.empty() && a.orient != "keep" && a.orient != "none")
-    throw nhnet::InvalidOptions("--orient must be 'keep' or 'none', got '" + a.orient + "'");
-  if (nhnet::format_from_extension(a.out) == nhnet::FileFormat::Auto)
-    throw nhnet::InvalidOptions("cannot tell the output format from the extension of " + a.out +
-                                " (use .ply, .pcd, .xyz, .xyzn or .txt)");
+  nhnet::OrientOptions orient;
+  if (!a.orient.empty()) orient = parse_orient(a.orient);
+  orient.run.threads = opt.run.threads;
+  check_output_format(a.out);
 
   Reporter rep(a.quiet);
   if (opt.method == nhnet::Method::Pca && !opt.scales.empty())
@@ -98,21 +64,27 @@ int run_estimate(const EstimateArgs& a) {
   for (const auto& w : read_warnings) rep.warn(w);
   throw_if_interrupted();
 
-  bool orient_keep = a.orient.empty() ? cloud.has_normals() : a.orient == "keep";
-  if (orient_keep && !cloud.has_normals()) {
+  if (a.orient.empty())
+    orient.mode = cloud.has_normals() ? nhnet::OrientMode::Keep : nhnet::OrientMode::Mst;
+  if (orient.mode == nhnet::OrientMode::Keep && !cloud.has_normals()) {
     rep.warn("--orient keep: " + a.in + " has no normals; output normals stay unoriented");
-    orient_keep = false;
+    orient.mode = nhnet::OrientMode::None;
   }
 
-  // 4. Estimate (exit 4 when too few finite points, 130 when interrupted).
-  opt.run.progress = rep.callback();
+  // 4. Estimate (exit 4 when too few finite points, 130 when interrupted), then orient.
+  const double est_end = orient.mode == nhnet::OrientMode::Mst ? 0.9 : 1.0;
+  opt.run.progress = rep.callback(0.0, est_end);
   nhnet::EstimateResult res = nhnet::estimate_normals(cloud.points, opt);
   rep.clear();
   for (const auto& w : res.warnings) rep.warn(w);
   throw_if_interrupted();
 
-  int64_t flipped = 0;
-  if (orient_keep) flipped = nhnet::orient_like(res.normals, cloud.normals);
+  orient.run.progress = rep.callback(est_end, 1.0);
+  const nhnet::OrientResult ores =
+      nhnet::orient_normals(cloud.points, res.normals, orient, cloud.normals);
+  rep.clear();
+  warn_unoriented(rep, orient, ores);
+  throw_if_interrupted();
 
   // 5. Write (exit 6); write_cloud goes through a temporary file + rename.
   cloud.normals = std::move(res.normals);
@@ -133,7 +105,7 @@ int run_estimate(const EstimateArgs& a) {
          << method << ", k " << res.k_used << ", scales "
          << (res.scales_used.empty() ? std::string("-") : join(res.scales_used, "/"))
          << ", noise ratio " << noise << ", " << res.candidates << " candidates, orient "
-         << (orient_keep ? "keep (" + std::to_string(flipped) + " flipped)" : std::string("none"));
+         << orient_summary(orient, ores);
     char secs[32];
     std::snprintf(secs, sizeof secs, "%.2f", seconds);
     line << ", " << secs << " s, output " << a.out;
@@ -148,8 +120,8 @@ int run_estimate(const EstimateArgs& a) {
        << ", \"noise_ratio\": " << json_number(res.noise_ratio)
        << ", \"spacing\": " << json_number(res.spacing)
        << ", \"candidates\": " << res.candidates
-       << ", \"orient\": " << json_string(orient_keep ? "keep" : "none")
-       << ", \"flipped\": " << flipped << ", \"warnings\": " << res.warnings.size() + read_warnings.size()
+       << ", " << orient_json(orient, ores)
+       << ", \"warnings\": " << res.warnings.size() + read_warnings.size()
        << ", \"seconds\": " << json_number(seconds, 4) << "}";
     std::cout << js.str() << std::endl;
   }
@@ -162,11 +134,7 @@ Command add_estimate_command(CLI::App& parent) {
   auto args = std::make_shared<EstimateArgs>();
   CLI::App* sub = parent.add_subcommand(
       "estimate", "Estimate unit normals of a point cloud and write the cloud with them");
-  sub->add_option("IN", args->in, "Input cloud (.ply, .pcd, .xyz/.xyzn/.txt; content is sniffed)")
-      ->required();
-  sub->add_option("OUT", args->out,
-                  "Output cloud; the format follows the extension (.ply, .pcd, .xyz/.xyzn/.txt)")
-      ->required();
+  add_in_out(sub, args->in, args->out);
   sub->add_option("-m,--method", args->method, "pca | mfps (default: mfps)")->type_name("NAME");
   sub->add_option("-k,--k", args->k,
                   "PCA neighbourhood size, >= 3 (default: chosen from the noise level)")
@@ -177,24 +145,24 @@ Command add_estimate_command(CLI::App& parent) {
   sub->add_option("--threads", args->threads, "Worker threads, 0 = all cores (default: 0)")
       ->type_name("N");
   sub->add_option("--orient", args->orient,
-                  "keep: flip normals to agree with the input's normals (default when the input "
-                  "has normals); none: leave signs arbitrary")
+                  "keep: agree with the input's normals (default when the input has normals); "
+                  "mst[:K]: consistent over each connected part by a minimum spanning tree over "
+                  "K neighbours (default K 18; default mode when the input has no normals); "
+                  "viewpoint X Y Z: towards a sensor at X Y Z; none: signs arbitrary")
       ->type_name("MODE");
   sub->add_option("--seed", args->seed, "Seed of MFPS's random plane samples (default: 1)")
       ->type_name("S");
-  sub->add_flag("--ascii", args->ascii, "Write PLY/PCD as ascii instead of binary");
-  sub->add_flag("--overwrite", args->overwrite, "Replace OUT if it exists (never the input)");
-  sub->add_flag("-q,--quiet", args->quiet,
-                "No progress bar and no summary line (warnings and errors still go to stderr)");
-  sub->add_flag("--json", args->json, "Print the summary as one JSON object on stdout");
+  add_output_flags(sub, args->ascii, args->overwrite, args->quiet, args->json);
   sub->footer(
-      "Normals are UNORIENTED (sign arbitrary) unless --orient keep flips them to agree with\n"
-      "the input's own normals. Points that fail (non-finite, degenerate) get NaN normals.\n"
+      "Orientation: by default normals agree with the input's normals when it has some, else\n"
+      "they are made consistent by MST over each connected part (outward on closed surfaces;\n"
+      "the highest point of each part faces +z). Points that fail get NaN normals.\n"
       "Other per-point properties (colour, intensity, ...) are kept in PLY/PCD output.\n\n"
       "Examples:\n"
       "  nhnet-cli estimate scan.ply scan-normals.ply\n"
       "  nhnet-cli estimate scan.xyz out.pcd --method pca --k 30 --threads 4\n"
-      "  nhnet-cli estimate noisy.xyz out.xyzn --scales 50,100,150 --json\n\n"
+      "  nhnet-cli estimate noisy.xyz out.xyzn --scales 50,100,150 --json\n"
+      "  nhnet-cli estimate scan.ply out.ply --orient viewpoint 0 0 1.5\n\n"
       "Exit codes: 0 ok, 2 bad parameter, 3 bad input, 4 too few finite points,\n"
       "6 cannot write output, 7 out of memory, 130 interrupted.\n");
   return Command{sub, [args] { return run_estimate(*args); }};

@@ -2,6 +2,9 @@
 #include "common.hpp"
 
 #include "nhnet/errors.hpp"
+#include "nhnet/io.hpp"
+
+#include <CLI/CLI.hpp>
 
 #include <unistd.h>
 
@@ -12,6 +15,7 @@
 #include <csignal>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <iostream>
 
 namespace nhcli {
@@ -66,6 +70,121 @@ std::vector<int> parse_scales(const std::string& text) {
     begin = comma + 1;
   }
   return scales;
+}
+
+double parse_double(const std::string& option, const std::string& text, double above) {
+  double value = 0;
+  const char* last = text.data() + text.size();
+  const auto [ptr, ec] = std::from_chars(text.data(), last, value);
+  if (text.empty() || ec != std::errc() || ptr != last || !std::isfinite(value) || !(value > above)) {
+    char bound[32];
+    std::snprintf(bound, sizeof bound, "%g", above);
+    throw nhnet::InvalidOptions(option + " must be a number > " + bound + ", got " + quoted(text));
+  }
+  return value;
+}
+
+nhnet::OrientOptions parse_orient(const std::string& text) {
+  const std::string usage =
+      "--orient must be keep, none, mst, mst:K (K >= 2) or viewpoint X Y Z, got " + quoted(text);
+  const size_t colon = text.find(':');
+  const std::string mode = text.substr(0, colon);
+  const std::string values = colon == std::string::npos ? "" : text.substr(colon + 1);
+  nhnet::OrientOptions opt;
+  try {
+    opt.mode = nhnet::orient_mode_from_string(mode);
+  } catch (const nhnet::InvalidOptions&) {
+    throw nhnet::InvalidOptions(usage);
+  }
+  if (opt.mode == nhnet::OrientMode::Mst && colon != std::string::npos)
+    opt.k = parse_int("--orient mst:K", values, 2);
+  else if (opt.mode == nhnet::OrientMode::Viewpoint) {
+    std::vector<std::string> xyz;
+    for (size_t b = 0;;) {
+      const size_t c = values.find(',', b);
+      xyz.push_back(values.substr(b, c == std::string::npos ? std::string::npos : c - b));
+      if (c == std::string::npos) break;
+      b = c + 1;
+    }
+    if (colon == std::string::npos || xyz.size() != 3)
+      throw nhnet::InvalidOptions("--orient viewpoint needs 3 coordinates X Y Z, got " +
+                                  quoted(text));
+    for (int d = 0; d < 3; ++d)
+      opt.viewpoint[d] = parse_double("--orient viewpoint " + std::string(1, char('X' + d)),
+                                      xyz[size_t(d)], -HUGE_VAL);
+  } else if (colon != std::string::npos) {
+    throw nhnet::InvalidOptions(usage);
+  }
+  return opt;
+}
+
+std::vector<std::string> cli_args(int argc, char** argv) {
+  std::vector<std::string> args(argv + 1, argv + argc);
+  for (size_t i = 0; i + 1 < args.size(); ++i)
+    if (args[i] == "--orient" && args[i + 1] == "viewpoint") {
+      const size_t n = std::min<size_t>(3, args.size() - i - 2);
+      std::string joined = "--orient=viewpoint:";
+      for (size_t j = 0; j < n; ++j) joined += (j ? "," : "") + args[i + 2 + j];
+      args.erase(args.begin() + long(i) + 1, args.begin() + long(i + 2 + n));
+      args[i] = joined;
+    }
+  std::reverse(args.begin(), args.end());
+  return args;
+}
+
+// ---- shared arguments ----------------------------------------------------------------------------
+
+void add_in_out(CLI::App* sub, std::string& in, std::string& out) {
+  sub->add_option("IN", in, "Input cloud (.ply, .pcd, .xyz/.xyzn/.txt; content is sniffed)")
+      ->required();
+  sub->add_option("OUT", out,
+                  "Output cloud; the format follows the extension (.ply, .pcd, .xyz/.xyzn/.txt)")
+      ->required();
+}
+
+void add_output_flags(CLI::App* sub, bool& ascii, bool& overwrite, bool& quiet, bool& json) {
+  sub->add_flag("--ascii", ascii, "Write PLY/PCD as ascii instead of binary");
+  sub->add_flag("--overwrite", overwrite, "Replace OUT if it exists (never the input)");
+  sub->add_flag("-q,--quiet", quiet,
+                "No progress bar and no summary line (warnings and errors still go to stderr)");
+  sub->add_flag("--json", json, "Print the summary as one JSON object on stdout");
+}
+
+// ---- files ---------------------------------------------------------------------------------------
+
+namespace fs = std::filesystem;
+
+/// Output path checks (exit 6) done before reading anything.
+void check_output(const std::string& in, const std::string& out, bool overwrite) {
+  std::error_code ec;
+  const fs::path out_path(out), in_path(in);
+  const fs::file_status st = fs::status(out_path, ec);
+  if (fs::exists(st)) {
+    if (fs::is_directory(st)) throw nhnet::OutputError(out + ": is a directory");
+    std::error_code ec2;
+    if (fs::exists(in_path, ec2) && fs::equivalent(in_path, out_path, ec2) && !ec2)
+      throw nhnet::OutputError("refusing to overwrite the input " + in +
+                               " (choose another output path)");
+    if (!overwrite)
+      throw nhnet::OutputError(out + " already exists (use --overwrite to replace it)");
+  }
+  fs::path dir = out_path.parent_path();
+  if (dir.empty()) dir = ".";
+  const fs::file_status dst = fs::status(dir, ec);
+  if (!fs::exists(dst))
+    throw nhnet::OutputError("cannot write " + out + ": directory " + dir.string() +
+                             " does not exist");
+  if (!fs::is_directory(dst))
+    throw nhnet::OutputError("cannot write " + out + ": " + dir.string() + " is not a directory");
+  if (::access(dir.c_str(), W_OK | X_OK) != 0)
+    throw nhnet::OutputError("cannot write " + out + ": directory " + dir.string() + ": " +
+                             std::strerror(errno));
+}
+
+void check_output_format(const std::string& out) {
+  if (nhnet::format_from_extension(out) == nhnet::FileFormat::Auto)
+    throw nhnet::InvalidOptions("cannot tell the output format from the extension of " + out +
+                                " (use .ply, .pcd, .xyz, .xyzn or .txt)");
 }
 
 // ---- signals -------------------------------------------------------------------------------------
@@ -124,9 +243,9 @@ double Reporter::elapsed() const {
 
 void Reporter::stage(const std::string& name, double fraction) { draw(fraction, name, true); }
 
-nhnet::ProgressCallback Reporter::callback() {
-  return [this](double fraction, const std::string& name) {
-    draw(fraction, name, false);
+nhnet::ProgressCallback Reporter::callback(double begin, double end) {
+  return [this, begin, end](double fraction, const std::string& name) {
+    draw(begin + (end - begin) * fraction, name, false);
     return interrupted() == 0;
   };
 }
@@ -164,6 +283,47 @@ void Reporter::clear() {
 void Reporter::warn(const std::string& message) {
   clear();
   std::cerr << "nhnet-cli: warning: " << one_line(message) << std::endl;
+}
+
+// ---- orientation ---------------------------------------------------------------------------------
+
+void warn_unoriented(Reporter& rep, const nhnet::OrientOptions& opt, const nhnet::OrientResult& r) {
+  if (r.unoriented_components > 0)
+    rep.warn("--orient mst: " + std::to_string(r.unoriented_components) + " of " +
+             std::to_string(r.components) + " connected parts could not be oriented; " +
+             std::to_string(r.unoriented) + " normals keep an arbitrary sign");
+  else if (r.unoriented > 0)
+    rep.warn("--orient " + std::string(nhnet::to_string(opt.mode)) + ": " +
+             std::to_string(r.unoriented) + " normals could not be oriented (" +
+             (opt.mode == nhnet::OrientMode::Keep ? "the input normal is missing or perpendicular"
+                                                  : "perpendicular to the line of sight") +
+             "); their sign is arbitrary");
+}
+
+std::string orient_summary(const nhnet::OrientOptions& opt, const nhnet::OrientResult& r) {
+  std::string s = nhnet::to_string(opt.mode);
+  if (opt.mode == nhnet::OrientMode::None) return s;
+  s += " (";
+  if (opt.mode == nhnet::OrientMode::Mst)
+    s += std::to_string(r.components) + (r.components == 1 ? " part, " : " parts, ") +
+         std::to_string(r.completed) + " completed, ";
+  if (opt.mode != nhnet::OrientMode::Keep || r.unoriented > 0)
+    s += std::to_string(r.unoriented) + " unoriented, ";
+  return s + std::to_string(r.flipped) + " flipped)";
+}
+
+std::string orient_json(const nhnet::OrientOptions& opt, const nhnet::OrientResult& r) {
+  std::string s = "\"orient\": " + json_string(nhnet::to_string(opt.mode)) +
+                  ", \"flipped\": " + std::to_string(r.flipped) +
+                  ", \"unoriented\": " + std::to_string(r.unoriented) +
+                  ", \"components\": " + std::to_string(r.components) +
+                  ", \"unoriented_components\": " + std::to_string(r.unoriented_components) +
+                  ", \"completed\": " + std::to_string(r.completed);
+  if (opt.mode == nhnet::OrientMode::Mst) s += ", \"orient_k\": " + std::to_string(opt.k);
+  if (opt.mode == nhnet::OrientMode::Viewpoint)
+    s += ", \"viewpoint\": [" + json_number(opt.viewpoint[0], 17) + ", " +
+         json_number(opt.viewpoint[1], 17) + ", " + json_number(opt.viewpoint[2], 17) + "]";
+  return s;
 }
 
 // ---- output helpers ------------------------------------------------------------------------------

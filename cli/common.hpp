@@ -2,6 +2,7 @@
 // progress bar), SIGINT/SIGTERM -> cancel flag, and a tiny JSON writer. No algorithm lives here.
 #pragma once
 
+#include "nhnet/orient.hpp"
 #include "nhnet/progress.hpp"
 
 #include <chrono>
@@ -36,6 +37,7 @@ struct Command {
 
 Command add_estimate_command(CLI::App& parent);
 Command add_eval_command(CLI::App& parent);
+Command add_denoise_command(CLI::App& parent);
 
 // ---- parameters --------------------------------------------------------------------------------
 
@@ -46,6 +48,29 @@ int parse_int(const std::string& option, const std::string& text, int min);
 uint64_t parse_u64(const std::string& option, const std::string& text);
 /// "auto" (or empty) -> {}; "50,100,150" -> {50, 100, 150}; every value an integer >= 3.
 std::vector<int> parse_scales(const std::string& text);
+/// Parses a whole string as a finite decimal number > `above` (strictly).
+double parse_double(const std::string& option, const std::string& text, double above);
+/// The value of --orient: "keep", "none", "mst", "mst:K" (K >= 2), "viewpoint:X,Y,Z".
+nhnet::OrientOptions parse_orient(const std::string& text);
+/// argv as CLI11 wants it (reversed), with "--orient viewpoint X Y Z" joined into the single
+/// value "--orient=viewpoint:X,Y,Z", so --orient takes exactly one value and can never swallow
+/// the positional arguments that follow it.
+std::vector<std::string> cli_args(int argc, char** argv);
+
+// ---- shared arguments ----------------------------------------------------------------------------
+
+/// The positional IN OUT of a command that reads one cloud and writes one.
+void add_in_out(CLI::App* sub, std::string& in, std::string& out);
+/// --ascii, --overwrite, -q/--quiet, --json of a command that writes a cloud.
+void add_output_flags(CLI::App* sub, bool& ascii, bool& overwrite, bool& quiet, bool& json);
+
+// ---- files ---------------------------------------------------------------------------------------
+
+/// Output path checks done before reading anything (nhnet::OutputError, exit 6): OUT is the
+/// input, exists without `overwrite`, is a directory, or its directory is missing / not writable.
+void check_output(const std::string& in, const std::string& out, bool overwrite);
+/// Throws nhnet::InvalidOptions (exit 2) when OUT's extension names no format we write.
+void check_output_format(const std::string& out);
 
 // ---- signals -------------------------------------------------------------------------------------
 
@@ -70,8 +95,9 @@ class Reporter {
 
   /// Shows `stage` at `fraction` (throttled to ~10 redraws per second).
   void stage(const std::string& name, double fraction = 0.0);
-  /// Callback for nhnet::RunContext: updates the bar, returns false once interrupted.
-  nhnet::ProgressCallback callback();
+  /// Callback for nhnet::RunContext: updates the bar, returns false once interrupted. The
+  /// call's own [0, 1] is shown as [begin, end] of the bar (for commands with several calls).
+  nhnet::ProgressCallback callback(double begin = 0.0, double end = 1.0);
   /// Prints "nhnet-cli: warning: <message>" on stderr.
   void warn(const std::string& message);
   /// Removes the bar from the terminal (idempotent).
@@ -90,6 +116,15 @@ class Reporter {
   std::chrono::steady_clock::time_point last_draw_;
   std::string last_stage_;
 };
+
+// ---- orientation ---------------------------------------------------------------------------------
+
+/// Warns about normals / connected parts that could not be oriented (nothing when all were).
+void warn_unoriented(Reporter& rep, const nhnet::OrientOptions& opt, const nhnet::OrientResult& r);
+/// Summary-line text: "mst (2 parts, 0 unoriented, 1234 flipped)", "keep (12 flipped)", "none".
+std::string orient_summary(const nhnet::OrientOptions& opt, const nhnet::OrientResult& r);
+/// JSON members: "orient": "...", "flipped": N, "unoriented": N, "components": N, ...
+std::string orient_json(const nhnet::OrientOptions& opt, const nhnet::OrientResult& r);
 
 // ---- output helpers ------------------------------------------------------------------------------
 

@@ -22,7 +22,7 @@ const char* kExitCodes =
     "  1    internal error\n"
     "  2    usage error or bad parameter\n"
     "  3    input unreadable or malformed (missing file, directory, garbage, truncated)\n"
-    "  4    input readable but unprocessable (fewer than 3 finite points)\n"
+    "  4    input readable but unprocessable (too few finite points)\n"
     "  6    output cannot be written (exists without --overwrite, same as input, no directory)\n"
     "  7    out of memory\n"
     "  130  interrupted (SIGINT / SIGTERM); no output is left behind\n";
@@ -72,6 +72,7 @@ int main(int argc, char** argv) {
   try {
     commands.push_back(nhcli::add_estimate_command(app));
     commands.push_back(nhcli::add_eval_command(app));
+    commands.push_back(nhcli::add_denoise_command(app));
   } catch (const std::exception& e) {
     return fail(nhcli::kFailure, std::string("internal error: ") + e.what());
   }
@@ -89,7 +90,7 @@ int main(int argc, char** argv) {
   }
 
   try {
-    app.parse(argc, argv);
+    app.parse(nhcli::cli_args(argc, argv));
   } catch (const CLI::Success& e) {  // --help, --help-all, --version
     return app.exit(e) == 0 ? nhcli::kOk : nhcli::kUsage;
   } catch (const CLI::ParseError& e) {

@@ -2,7 +2,10 @@
 // with clean points: for every BASE (a datagen cloud path without extension: BASE.xyz noisy,
 // BASE.clean.xyz clean, BASE.gt.xyzn ground-truth normals) and every normal source, prints the
 // mean distance of the noisy and of the denoised points to the clean surface (point-to-plane to
-// the nearest clean point, metrics.hpp), in % of the clean cloud's bounding-box diagonal.
+// the nearest clean point, metrics.hpp), in % of the clean cloud's bounding-box diagonal; and for
+// estimated normals the share whose sign agrees with the ground truth after `--orient mst`
+// (orient_normals defaults), over all points and over the points within 60 degrees of the truth
+// (the sign of a normal that is off by more says little).
 // Usage: denoise_accuracy [--methods pca,mfps,gt] [--radius-factors 3] [--iterations 20] BASE...
 // (normal sources: pca / mfps = nhnet::estimate_normals with that method, automatic scales;
 // gt = the ground-truth normals, an upper bound). See tools/README.md.
@@ -10,8 +13,10 @@
 #include "nhnet/estimate.hpp"
 #include "nhnet/io.hpp"
 #include "nhnet/metrics.hpp"
+#include "nhnet/orient.hpp"
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <sstream>
@@ -50,8 +55,8 @@ int main(int argc, char** argv) {
       bases.push_back(arg);
     }
   }
-  std::printf("%-36s %-5s %6s %10s %10s %7s %6s\n", "cloud", "norm", "factor", "before_%",
-              "after_%", "ratio", "sec");
+  std::printf("%-36s %-5s %6s %10s %10s %7s %6s %8s %8s\n", "cloud", "norm", "factor", "before_%",
+              "after_%", "ratio", "sec", "sign_%", "sign60_%");
   for (const auto& base : bases) {
     const Cloud noisy = read_cloud(base + ".xyz");
     const Cloud clean = read_cloud(base + ".clean.xyz");
@@ -71,6 +76,24 @@ int main(int argc, char** argv) {
         normals = estimate_normals(noisy.points, eo).normals;
       }
       const double t_est = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      double sign = NAN, sign60 = NAN;
+      if (m != "gt") {
+        Normals oriented = normals;
+        orient_normals(noisy.points, oriented, OrientOptions{});
+        int64_t all = 0, agree = 0, close = 0, agree60 = 0;
+        for (Eigen::Index i = 0; i < oriented.rows(); ++i) {
+          const double d = oriented.row(i).dot(gt.normals.row(i));
+          if (!std::isfinite(d)) continue;
+          ++all;
+          agree += d > 0;
+          if (std::abs(d) >= 0.5) {
+            ++close;
+            agree60 += d > 0;
+          }
+        }
+        sign = 100.0 * double(agree) / double(all);
+        sign60 = 100.0 * double(agree60) / double(close);
+      }
       for (double f : factors) {
         const auto t1 = std::chrono::steady_clock::now();
         DenoiseOptions o;
@@ -79,8 +102,8 @@ int main(int argc, char** argv) {
         const DenoiseResult r = denoise_points(noisy.points, normals, o);
         const double after = surface_distances(r.points, clean.points, gt.normals).mean() * pct;
         const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
-        std::printf("%-36s %-5s %6.2f %10.4f %10.4f %7.3f %6.2f\n", name.c_str(), m.c_str(), f,
-                    before, after, after / before, t + t_est);
+        std::printf("%-36s %-5s %6.2f %10.4f %10.4f %7.3f %6.2f %8.2f %8.2f\n", name.c_str(),
+                    m.c_str(), f, before, after, after / before, t + t_est, sign, sign60);
         std::fflush(stdout);
       }
     }

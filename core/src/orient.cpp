@@ -6,6 +6,7 @@
 #include "nhnet/errors.hpp"
 #include "nhnet/estimate.hpp"
 #include "nhnet/neighbors.hpp"
+#include "nhnet/pca.hpp"
 #include "parallel.hpp"
 
 #include <CGAL/Simple_cartesian.h>
@@ -56,24 +57,29 @@ int32_t find_root(std::vector<int32_t>& parent, int32_t x) {
   return x;
 }
 
-/// MST orientation of the rows `used` of points/normals, one CGAL call per k-NN component.
+/// MST orientation of the rows `used` of points/normals, one CGAL call per k-NN component, on
+/// the guide normals (see OrientOptions::smooth_guide); the signs then go to `normals`.
 void orient_mst(const Points& points, Normals& normals, const std::vector<int64_t>& used,
                 const OrientOptions& options, OrientResult& res) {
   const Eigen::Index m = Eigen::Index(used.size());
   if (m == 0) return;
   detail::Progress progress(options.run.progress);
   Points pts(m, 3);
-  for (Eigen::Index i = 0; i < m; ++i) pts.row(i) = points.row(used[size_t(i)]);
+  Normals guide(m, 3);
+  for (Eigen::Index i = 0; i < m; ++i) {
+    pts.row(i) = points.row(used[size_t(i)]);
+    guide.row(i) = normals.row(used[size_t(i)]).normalized();
+  }
 
-  // Components of the symmetric k-NN graph: the same graph CGAL builds inside each component
-  // (an edge when either point is among the other's k nearest, self included).
+  // Components of the symmetric k-NN graph (an edge when either point is among the other's k
+  // nearest, self included).
   const int k = int(std::min<Eigen::Index>(options.k, m));
   if (options.run.progress) progress.stage("orient: neighbours", 0, 0.2);
   std::vector<int32_t> parent(static_cast<size_t>(m));
   std::iota(parent.begin(), parent.end(), 0);
+  IndexMatrix knn;
   if (m > 1) {
     const Neighbors tree(pts);
-    IndexMatrix knn;
     RunContext sub;
     sub.threads = options.run.threads;
     tree.knn_all(k, knn, nullptr, sub);
@@ -82,6 +88,13 @@ void orient_mst(const Points& points, Normals& normals, const std::vector<int64_
         const int32_t a = find_root(parent, int32_t(i)), b = find_root(parent, knn(i, c));
         if (a != b) parent[size_t(std::max(a, b))] = std::min(a, b);
       }
+    if (options.smooth_guide && m >= 3) {
+      IndexMatrix gknn;
+      tree.knn_all(options.guide_k, gknn, nullptr, sub);
+      const Normals pca = pca_normals(pts, gknn, PcaOptions{int(gknn.cols())}, sub).normals;
+      for (Eigen::Index i = 0; i < m; ++i)
+        if (pca.row(i).allFinite()) guide.row(i) = pca.row(i);
+    }
   }
   progress.throw_if_cancelled();
   std::vector<std::vector<int32_t>> comps;
@@ -99,6 +112,7 @@ void orient_mst(const Points& points, Normals& normals, const std::vector<int64_
   res.components = int64_t(comps.size());
 
   // One CGAL call per component, on copies indexed 0..size-1; CGAL reorders only `range`.
+  std::vector<uint8_t> oriented(static_cast<size_t>(m), 0);
   int64_t done = 0;
   if (options.run.progress) progress.stage("orient: mst", 0.2, 1.0);
   for (const auto& comp : comps) {
@@ -108,15 +122,13 @@ void orient_mst(const Points& points, Normals& normals, const std::vector<int64_
     cp.reserve(cs);
     cn.reserve(cs);
     for (int32_t li : comp) {
-      const Eigen::RowVector3d p = pts.row(li);
-      const Eigen::RowVector3d n = normals.row(used[size_t(li)]).normalized();
-      cp.emplace_back(p[0], p[1], p[2]);
-      cn.emplace_back(n[0], n[1], n[2]);
+      cp.emplace_back(pts(li, 0), pts(li, 1), pts(li, 2));
+      cn.emplace_back(guide(li, 0), guide(li, 1), guide(li, 2));
     }
-    size_t left = 0;
     if (cs == 1) {
       // A lone point (only when the cloud has one valid point): the seed rule, +z.
       if (cn[0].z() < 0) cn[0] = -cn[0];
+      oriented[size_t(comp[0])] = 1;
     } else {
       std::vector<std::size_t> range(cs);
       std::iota(range.begin(), range.end(), std::size_t(0));
@@ -125,24 +137,58 @@ void orient_mst(const Points& points, Normals& normals, const std::vector<int64_
           CGAL::parameters::point_map(CGAL::make_property_map(cp))
               .normal_map(CGAL::make_property_map(cn))
               .geom_traits(Kernel()));
-      left = size_t(range.end() - first_unoriented);
+      for (auto it = range.begin(); it != first_unoriented; ++it) oriented[size_t(comp[*it])] = 1;
     }
-    if (left > 0) {
-      ++res.unoriented_components;
-      res.unoriented += int64_t(left);
-    }
-    for (size_t t = 0; t < cs; ++t) {
-      const int64_t row = used[size_t(comp[t])];
-      const Eigen::RowVector3d n(cn[t].x(), cn[t].y(), cn[t].z());
-      if (n.dot(normals.row(row)) < 0) {
-        normals.row(row) *= -1.0;  // only the sign changes; the length stays the caller's
-        ++res.flipped;
-      }
-    }
+    for (size_t t = 0; t < cs; ++t) guide.row(comp[t]) << cn[t].x(), cn[t].y(), cn[t].z();
     done += int64_t(cs);
     if (options.run.progress && !progress.report(double(done) / double(m))) break;
   }
   progress.throw_if_cancelled();
+
+  // Completion: points CGAL left unoriented take the sign of an oriented neighbour in the
+  // symmetric k-NN graph, breadth first from every oriented point.
+  if (std::count(oriented.begin(), oriented.end(), uint8_t(0)) > 0 && knn.rows() == m) {
+    std::vector<std::vector<int32_t>> adj(static_cast<size_t>(m));
+    for (Eigen::Index i = 0; i < m; ++i)
+      for (Eigen::Index c = 1; c < knn.cols(); ++c) {
+        adj[size_t(i)].push_back(knn(i, c));
+        adj[size_t(knn(i, c))].push_back(int32_t(i));
+      }
+    std::vector<int32_t> queue;
+    for (Eigen::Index i = 0; i < m; ++i)
+      if (oriented[size_t(i)]) queue.push_back(int32_t(i));
+    for (size_t q = 0; q < queue.size(); ++q) {
+      const int32_t u = queue[q];
+      for (int32_t v : adj[size_t(u)]) {
+        if (oriented[size_t(v)]) continue;
+        oriented[size_t(v)] = 1;
+        if (guide.row(v).dot(guide.row(u)) < 0) guide.row(v) *= -1.0;
+        ++res.completed;
+        queue.push_back(v);
+      }
+    }
+  }
+
+  // Signs to the caller's normals (only the sign changes, the length stays the caller's).
+  for (const auto& comp : comps) {
+    int64_t left = 0;
+    for (int32_t li : comp) {
+      const int64_t row = used[size_t(li)];
+      const double d = normals.row(row).dot(guide.row(li));
+      if (!oriented[size_t(li)] || !(d != 0)) {
+        ++left;
+        continue;
+      }
+      if (d < 0) {
+        normals.row(row) *= -1.0;
+        ++res.flipped;
+      }
+    }
+    if (left > 0) {
+      ++res.unoriented_components;
+      res.unoriented += left;
+    }
+  }
 }
 
 }  // namespace
@@ -154,6 +200,9 @@ OrientResult orient_normals(const Points& points, Normals& normals, const Orient
                          std::to_string(points.rows()) + " points");
   if (options.mode == OrientMode::Mst && options.k < 2)
     throw InvalidOptions("orient: mst needs k >= 2, got " + std::to_string(options.k));
+  if (options.mode == OrientMode::Mst && options.smooth_guide && options.guide_k < 3)
+    throw InvalidOptions("orient: the guide needs guide_k >= 3, got " +
+                         std::to_string(options.guide_k));
   if (options.mode == OrientMode::Viewpoint && !options.viewpoint.allFinite())
     throw InvalidOptions("orient: the viewpoint must have finite coordinates");
   if (options.mode == OrientMode::Keep && reference.rows() != points.rows())

@@ -88,6 +88,9 @@ void register_orient(py::module_& m) {
       .def_property_readonly("unoriented_components",
                              core_field<PyOrientResult>(&OrientResult::unoriented_components),
                              "'mst': components that could not be oriented completely.")
+      .def_property_readonly("completed", core_field<PyOrientResult>(&OrientResult::completed),
+                             "'mst': points CGAL left out inside a connected component, oriented "
+                             "from a neighbour.")
       .def("__repr__", [](const PyOrientResult& r) {
         return "<nhnet.OrientResult flipped=" + std::to_string(r.core.flipped) +
                " unoriented=" + std::to_string(r.core.unoriented) +

@@ -7,6 +7,8 @@
 //              seed (the highest point of the component, its normal turned to +z, i.e. outward
 //              on a closed surface). Run once per connected component of the k-NN graph (CGAL
 //              alone orients only the component of its seed); the point order never changes.
+//              By default it propagates smooth PCA guide normals and copies their signs (see
+//              OrientOptions::smooth_guide): sharp normals cannot carry a sign across an edge.
 //   none       leave the signs as they are
 #pragma once
 
@@ -33,6 +35,16 @@ struct OrientOptions {
   /// Mst mode: neighbours per point in the k-NN graph, self included (CGAL's examples: 18; at
   /// least 2). Larger k bridges gaps between sampled parts, smaller k keeps thin parts apart.
   int k = 18;
+  /// Mst: propagate over guide normals, PCA normals over the guide_k nearest neighbours, and
+  /// give each normal the sign of its point's oriented guide. Sharp normals (MFPS, NH-Net) are
+  /// perpendicular across an edge, where propagation is a coin flip; wide PCA normals turn
+  /// smoothly over edges and average the noise out. Measured on the fandisk sample (0.6 % noise)
+  /// with MFPS normals, share agreeing in sign with the truth: propagated directly 75 %; through
+  /// a guide of 18 / 30 / 50 / 90 neighbours 98.7 / 99.5 / 99.7 / 99.7 % (99.93 % of the points
+  /// whose normal is within 60 degrees of the truth). false = propagate the normals themselves.
+  bool smooth_guide = true;
+  /// Neighbourhood size of the guide's PCA (self included, >= 3).
+  int guide_k = 50;
   /// Threads (0 = all cores) and progress/cancel callback.
   RunContext run;
 };
@@ -50,6 +62,11 @@ struct OrientResult {
   /// could not be oriented completely (CGAL left some of their points unoriented).
   int64_t components = 0;
   int64_t unoriented_components = 0;
+  /// Mst: points CGAL left unoriented although their component is connected (CGAL keeps the
+  /// edge i-j only when the higher index is among the k nearest of the lower one, so its graph
+  /// can fall apart where ours does not); each took the sign of an already oriented neighbour
+  /// in the symmetric k-NN graph (breadth first). Not counted in `unoriented`.
+  int64_t completed = 0;
 };
 
 /// Orients `normals` (N x 3, rows of `points`, N x 3) in place; the order of the rows never
