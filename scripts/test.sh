@@ -21,7 +21,7 @@ echo "== 4/4 pytest (tests/python)"
 if [[ -d tests/python ]]; then
   has_tests=$(find tests/python -type f \( -name 'test_*.py' -o -name '*_test.py' \) | head -n 1)
   set +e
-  PYTHONPATH="$PWD/training${PYTHONPATH:+:$PYTHONPATH}" /usr/bin/python3 -m pytest tests/python -q
+  NHNET_BUILD_DIR="$PWD/build" PYTHONPATH="$PWD/build/python:$PWD/training${PYTHONPATH:+:$PYTHONPATH}" /usr/bin/python3 -m pytest tests/python -q
   rc=$?
   set -e
   if [[ $rc == 5 && -z $has_tests ]]; then
