@@ -64,5 +64,6 @@ void register_errors(py::module_& m);
 void register_estimate(py::module_& m);
 void register_io(py::module_& m);
 void register_metrics(py::module_& m);
+void register_descriptors(py::module_& m);
 
 }  // namespace nhnet::python

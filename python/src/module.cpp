@@ -11,4 +11,5 @@ PYBIND11_MODULE(_nhnet, m) {
   nhnet::python::register_estimate(m);
   nhnet::python::register_io(m);
   nhnet::python::register_metrics(m);
+  nhnet::python::register_descriptors(m);
 }
