@@ -18,6 +18,8 @@ PKGS=(
   libcgal-demo
   # python side: bindings, data generation, training
   python3-dev python3-numpy pybind11-dev
+  # NH-Net: training (python3-torch) and inference in the core (libtorch-dev, same 1.13)
+  python3-torch libtorch-dev
 )
 
 SUDO=""
