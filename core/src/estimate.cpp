@@ -8,6 +8,7 @@
 #include "nhnet/bandwidth.hpp"
 #include "nhnet/feature_detection.hpp"
 #include "nhnet/mfps.hpp"
+#include "nhnet/nhnet_model.hpp"
 #include "nhnet/scales.hpp"
 #include "parallel.hpp"
 
@@ -20,13 +21,15 @@ namespace nhnet {
 Method method_from_string(const std::string& name) {
   if (name == "pca") return Method::Pca;
   if (name == "mfps") return Method::Mfps;
-  throw InvalidOptions("unknown method '" + name + "' (expected pca or mfps)");
+  if (name == "nhnet") return Method::NhNet;
+  throw InvalidOptions("unknown method '" + name + "' (expected pca, mfps or nhnet)");
 }
 
 const char* to_string(Method method) {
   switch (method) {
     case Method::Pca: return "pca";
     case Method::Mfps: return "mfps";
+    case Method::NhNet: return "nhnet";
   }
   return "?";
 }
@@ -69,6 +72,7 @@ int max_scale(const std::vector<int>& scales) {
 }  // namespace
 
 EstimateResult estimate_normals(const Points& points, const EstimateOptions& options) {
+  if (options.method == Method::NhNet) return estimate_nhnet(points, options);
   if (options.k < 0 || options.k == 1 || options.k == 2)
     throw InvalidOptions("k must be 0 (auto) or at least 3, got " + std::to_string(options.k));
   for (int s : options.scales)
