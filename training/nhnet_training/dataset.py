@@ -22,7 +22,7 @@ TEST_ONLY_PREFIXES = ("fandisk", "armadillo", "bunny", "cube")
 
 def select_clouds(cfg: TrainConfig) -> List[dict]:
     """Clouds of the train split used for training: every model gets two of the configured noise
-    levels (cycled over the models), so all levels are covered at half the cost."""
+    levels (cycled over the models), so all levels are covered at less cost."""
     index = json.loads((Path(cfg.data_dir) / "train" / "index.json").read_text())
     clouds = [c for c in index["clouds"] if c["variant"] in cfg.variants]
     for c in clouds:
@@ -30,11 +30,13 @@ def select_clouds(cfg: TrainConfig) -> List[dict]:
             raise ValueError(f"test-only model {c['model']} in the training split")
     models = sorted({c["model"] for c in clouds})
     levels = list(cfg.noise_levels)
-    chosen = []
+    rounds = [[], []] if len(levels) > 2 else [[] for _ in levels]
     for i, m in enumerate(models):
-        want = {levels[i % len(levels)], levels[(i + 2) % len(levels)]} if len(levels) > 2 else set(levels)
-        chosen += [c for c in clouds if c["model"] == m and c["noise_percent"] in want]
-    chosen.sort(key=lambda c: c["name"])
+        want = [levels[i % len(levels)], levels[(i + 2) % len(levels)]] if len(levels) > 2 else levels
+        for r, lev in enumerate(want):
+            rounds[r] += [c for c in clouds if c["model"] == m and c["noise_percent"] == lev]
+    # One cloud of every model first, then the second ones: a prefix (max_clouds) covers all models.
+    chosen = [c for r in rounds for c in r]
     if cfg.max_clouds > 0:
         chosen = chosen[: cfg.max_clouds]
     return chosen
