@@ -12,9 +12,10 @@ namespace nhnet {
 
 FeatureNormals bilateral_filter(const Points& points, const Normals& normals,
                                 const IndexMatrix& knn, int k,
-                                const BilateralFilterOptions& options, const RunContext& run) {
-  const Eigen::Index n = points.rows();
-  if (normals.rows() != n || knn.rows() != n)
+                                const BilateralFilterOptions& options, const RunContext& run,
+                                Eigen::Index first) {
+  const Eigen::Index n = knn.rows();
+  if (normals.rows() != points.rows() || first < 0 || first + n > points.rows())
     throw InvalidOptions("bilateral_filter: points, normals and neighbour table differ in size");
   if (k < 2 || k > knn.cols())
     throw InvalidOptions("bilateral_filter: k must be in [2, " + std::to_string(knn.cols()) + "]");
@@ -30,12 +31,12 @@ FeatureNormals bilateral_filter(const Points& points, const Normals& normals,
   detail::Progress progress(run.progress);
   if (run.progress) progress.stage("bilateral filter", 0, 1);
   detail::parallel_for(n, run.threads, run.progress ? &progress : nullptr, [&](int64_t i) {
-    const Eigen::Vector3d ni = normals.row(i).transpose();
+    const Eigen::Vector3d ni = normals.row(first + i).transpose();
     if (!ni.allFinite()) {
       out.row(i).setConstant(std::numeric_limits<double>::quiet_NaN());
       return;
     }
-    const Eigen::Vector3d pi = points.row(i).transpose();
+    const Eigen::Vector3d pi = points.row(first + i).transpose();
     double spacing = 0;
     for (int c = 1; c <= options.spacing_k; ++c) spacing += (points.row(knn(i, c)).transpose() - pi).norm();
     spacing /= options.spacing_k;

@@ -14,11 +14,12 @@
 namespace nhnet {
 
 CanonicalFrames canonical_frames(const Points& points, const IndexMatrix& knn, int k,
-                                 const FeatureNormals& normals, const RunContext& run) {
+                                 const FeatureNormals& normals, const RunContext& run,
+                                 Eigen::Index first) {
   if (normals.cols() < 3 || normals.cols() % 3 != 0)
     throw InvalidOptions("canonical_frames: normals must have 3 F columns");
   const Eigen::Index n = normals.rows();
-  if (points.rows() != n || knn.rows() != n || k < 1 || k > knn.cols())
+  if (first < 0 || first + n > points.rows() || knn.rows() != n || k < 1 || k > knn.cols())
     throw InvalidOptions("canonical_frames: points, neighbour table and normals differ in size");
   const int f = int(normals.cols() / 3);
   CanonicalFrames out;
@@ -39,7 +40,7 @@ CanonicalFrames canonical_frames(const Points& points, const IndexMatrix& knn, i
     }
     Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(t);
     Eigen::Vector3d e3 = es.eigenvectors().col(2);
-    const Eigen::Vector3d pi = points.row(i).transpose();
+    const Eigen::Vector3d pi = points.row(first + i).transpose();
     double r3 = 0, m1 = 0, m3 = 0;
     for (int c = 1; c < k; ++c) {
       const Eigen::Vector3d d = points.row(knn(i, c)).transpose() - pi;

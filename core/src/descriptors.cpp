@@ -32,64 +32,73 @@ int descriptor_size(const DescriptorOptions& options) {
 
 void compute_descriptors(const Points& points, const Normals& normals, const IndexMatrix& knn,
                          int k, const DescriptorOptions& options, DescriptorMatrix& features,
-                         Rotations& rotations, const RunContext& run) {
+                         Rotations& rotations, const RunContext& run, Eigen::Index first) {
   const FeatureNormals filtered =
-      bilateral_filter(points, normals, knn, k, options.filter, narrow(run, 0, 0.4));
-  CanonicalFrames frames = canonical_frames(points, knn, k, filtered, narrow(run, 0.4, 0.5));
-  const HeightMaps maps = height_maps(points, knn, k, frames, options.map, narrow(run, 0.5, 1));
-  const Eigen::Index n = points.rows(), nf = filtered.cols();
+      bilateral_filter(points, normals, knn, k, options.filter, narrow(run, 0, 0.4), first);
+  CanonicalFrames frames =
+      canonical_frames(points, knn, k, filtered, narrow(run, 0.4, 0.5), first);
+  const HeightMaps maps =
+      height_maps(points, knn, k, frames, options.map, narrow(run, 0.5, 1), first);
+  const Eigen::Index n = knn.rows(), nf = filtered.cols();
   features.resize(n, nf + maps.cols());
   features.leftCols(nf) = frames.rotated.cast<float>();
   features.rightCols(maps.cols()) = maps;
   rotations = std::move(frames.rotations);
 }
 
-Descriptors describe(const Points& points, const DescriptorOptions& options) {
+DescriptorInput prepare_descriptors(const Points& points, const DescriptorOptions& options) {
   if (!(options.neighborhood_factor > 0))
     throw InvalidOptions("descriptor neighborhood factor must be > 0");
-  Descriptors out;
+  DescriptorInput in;
   EstimateOptions eo = options.estimate;
   eo.method = Method::Mfps;
-  eo.run = narrow(options.estimate.run, 0, 0.7);
-  out.geometry = estimate_normals(points, eo);
+  eo.run = narrow(options.estimate.run, 0, 0.9);
+  in.geometry = estimate_normals(points, eo);
   const Eigen::Index n = points.rows();
-  const int d = descriptor_size(options);
-  out.features.setConstant(n, d, std::numeric_limits<float>::quiet_NaN());
-  out.rotations.setConstant(n, 9, std::numeric_limits<double>::quiet_NaN());
-
-  std::vector<Eigen::Index> rows;
   for (Eigen::Index i = 0; i < n; ++i)
-    if (out.geometry.valid[size_t(i)]) rows.push_back(i);
-  const Eigen::Index m = Eigen::Index(rows.size());
+    if (in.geometry.valid[size_t(i)]) in.rows.push_back(i);
+  const Eigen::Index m = Eigen::Index(in.rows.size());
   if (m <= options.filter.spacing_k) {
-    out.geometry.warnings.push_back("too few points with a normal for descriptors");
-    return out;
+    in.geometry.warnings.push_back("too few points with a normal for descriptors");
+    in.rows.clear();
+    return in;
   }
-  Points pts(m, 3);
-  Normals nrm(m, 3);
+  in.points.resize(m, 3);
+  in.normals.resize(m, 3);
   for (Eigen::Index i = 0; i < m; ++i) {
-    pts.row(i) = points.row(rows[size_t(i)]);
-    nrm.row(i) = out.geometry.normals.row(rows[size_t(i)]);
+    in.points.row(i) = points.row(in.rows[size_t(i)]);
+    in.normals.row(i) = in.geometry.normals.row(in.rows[size_t(i)]);
   }
-  const int kmin = out.geometry.scales_used.empty()
-                       ? 50
-                       : *std::min_element(out.geometry.scales_used.begin(),
-                                           out.geometry.scales_used.end());
-  const int k = int(std::min<Eigen::Index>(
+  const auto& sc = in.geometry.scales_used;
+  const int kmin = sc.empty() ? 50 : *std::min_element(sc.begin(), sc.end());
+  in.k = int(std::min<Eigen::Index>(
       m, std::max(options.filter.spacing_k + 1,
                   int(std::ceil(options.neighborhood_factor * kmin - 1e-9)))));
-  out.k_used = k;
-  const RunContext& run = options.estimate.run;
-  Neighbors tree(pts);
-  IndexMatrix knn;
-  tree.knn_all(k, knn, nullptr, narrow(run, 0.7, 0.8));
-  DescriptorMatrix feat;
-  Rotations rot;
-  compute_descriptors(pts, nrm, knn, k, options, feat, rot, narrow(run, 0.8, 1));
-  for (Eigen::Index i = 0; i < m; ++i) {
-    out.features.row(rows[size_t(i)]) = feat.row(i);
-    out.rotations.row(rows[size_t(i)]) = rot.row(i);
+  Neighbors tree(in.points);
+  tree.knn_all(in.k, in.knn, nullptr, narrow(options.estimate.run, 0.9, 1));
+  return in;
+}
+
+Descriptors describe(const Points& points, const DescriptorOptions& options) {
+  DescriptorOptions o = options;
+  o.estimate.run = narrow(options.estimate.run, 0, 0.8);
+  DescriptorInput in = prepare_descriptors(points, o);
+  Descriptors out;
+  const Eigen::Index n = points.rows();
+  out.features.setConstant(n, descriptor_size(options), std::numeric_limits<float>::quiet_NaN());
+  out.rotations.setConstant(n, 9, std::numeric_limits<double>::quiet_NaN());
+  out.k_used = in.k;
+  if (!in.rows.empty()) {
+    DescriptorMatrix feat;
+    Rotations rot;
+    compute_descriptors(in.points, in.normals, in.knn, in.k, options, feat, rot,
+                        narrow(options.estimate.run, 0.8, 1));
+    for (size_t i = 0; i < in.rows.size(); ++i) {
+      out.features.row(in.rows[i]) = feat.row(Eigen::Index(i));
+      out.rotations.row(in.rows[i]) = rot.row(Eigen::Index(i));
+    }
   }
+  out.geometry = std::move(in.geometry);
   return out;
 }
 

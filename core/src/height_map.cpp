@@ -15,12 +15,13 @@ namespace nhnet {
 
 HeightMaps height_maps(const Points& points, const IndexMatrix& knn, int k,
                        const CanonicalFrames& frames, const HeightMapOptions& options,
-                       const RunContext& run) {
-  const Eigen::Index n = points.rows();
+                       const RunContext& run, Eigen::Index first) {
+  const Eigen::Index n = knn.rows();
   const int m = options.size;
   if (m < 1 || m % 2 == 0) throw InvalidOptions("height_maps: size must be odd and positive");
   if (!(options.ball > 0)) throw InvalidOptions("height_maps: ball must be > 0");
-  if (knn.rows() != n || frames.rotations.rows() != n || frames.rotated.rows() != n)
+  if (first < 0 || first + n > points.rows() || frames.rotations.rows() != n ||
+      frames.rotated.rows() != n)
     throw InvalidOptions("height_maps: points, neighbour table and frames differ in size");
   if (k < 2 || k > knn.cols())
     throw InvalidOptions("height_maps: k must be in [2, " + std::to_string(knn.cols()) + "]");
@@ -36,7 +37,7 @@ HeightMaps height_maps(const Points& points, const IndexMatrix& knn, int k,
     }
     Eigen::Matrix3d r;
     for (int c = 0; c < 9; ++c) r(c / 3, c % 3) = frames.rotations(i, c);
-    const Eigen::Vector3d pi = points.row(i).transpose();
+    const Eigen::Vector3d pi = points.row(first + i).transpose();
     const Eigen::Vector3d e1 = r.row(0).transpose(), e2 = r.row(1).transpose();
     std::vector<Eigen::Vector3d> d(static_cast<size_t>(k));
     double rad2 = 0;

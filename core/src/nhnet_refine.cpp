@@ -1,9 +1,11 @@
 // NH-Net refinement of the MFPS normals (paper Sec. 5): descriptors (descriptors.hpp), the
-// trained model (nhnet_model.hpp), then each frame normal back to world coordinates, R^T n.
+// trained model (nhnet_model.hpp), then each frame normal back to world coordinates, R^T n;
+// block by block so memory stays bounded.
 #include "nhnet/nhnet_model.hpp"
 
 #include "nhnet/errors.hpp"
 
+#include <algorithm>
 #include <limits>
 
 namespace nhnet {
@@ -16,29 +18,37 @@ EstimateResult estimate_nhnet(const Points& points, const EstimateOptions& optio
   DescriptorOptions dopt;
   dopt.estimate = options;
   dopt.estimate.method = Method::Mfps;
-  RunContext run = options.run;
-  if (run.progress) {
-    ProgressCallback cb = run.progress;
-    dopt.estimate.run.progress = [cb](double f, const std::string& s) { return cb(0.85 * f, s); };
-    run.progress = [cb](double f, const std::string& s) { return cb(0.85 + 0.15 * f, s); };
-  }
-  Descriptors d = describe(points, dopt);
-  const auto local = model.infer(d.features, options.nhnet_batch, run);
-  EstimateResult res = std::move(d.geometry);
+  ProgressCallback cb = options.run.progress;
+  if (cb) dopt.estimate.run.progress = [cb](double f, const std::string& s) { return cb(0.7 * f, s); };
+  DescriptorInput in = prepare_descriptors(points, dopt);
+  EstimateResult res = std::move(in.geometry);
   res.device_used = model.device();
-  res.descriptor_k = d.k_used;
+  res.descriptor_k = in.k;
+  // Blocks of points: descriptors, model, back to world coordinates. Memory stays bounded by the
+  // block (D floats per point) on top of the neighbour table the geometry stage needs anyway.
+  const Eigen::Index m = Eigen::Index(in.rows.size());
+  const Eigen::Index block = options.nhnet_batch;
   int64_t kept = 0;
-  for (Eigen::Index i = 0; i < points.rows(); ++i) {
-    if (!res.valid[size_t(i)]) continue;
-    Eigen::Matrix3d r;
-    for (int c = 0; c < 9; ++c) r(c / 3, c % 3) = d.rotations(i, c);
-    const Eigen::Vector3d y = local.row(i).transpose().cast<double>();
-    const Eigen::Vector3d w = r.transpose() * y;
-    if (w.allFinite() && w.norm() > 0.5) {
-      res.normals.row(i) = w.normalized().transpose();
-    } else {
-      ++kept;  // descriptor or model failed: the MFPS normal stays
+  RunContext run;
+  run.threads = options.run.threads;
+  for (Eigen::Index b = 0; b < m; b += block) {
+    const Eigen::Index len = std::min(block, m - b);
+    const IndexMatrix knn = in.knn.middleRows(b, len);
+    DescriptorMatrix features;
+    Rotations rot;
+    compute_descriptors(in.points, in.normals, knn, in.k, dopt, features, rot, run, b);
+    const auto local = model.infer(features, options.nhnet_batch, run);
+    for (Eigen::Index r = 0; r < len; ++r) {
+      Eigen::Matrix3d rm;
+      for (int c = 0; c < 9; ++c) rm(c / 3, c % 3) = rot(r, c);
+      const Eigen::Vector3d w = rm.transpose() * local.row(r).transpose().cast<double>();
+      if (w.allFinite() && w.norm() > 0.5) {
+        res.normals.row(in.rows[size_t(b + r)]) = w.normalized().transpose();
+      } else {
+        ++kept;  // descriptor or model failed: the MFPS normal stays
+      }
     }
+    if (cb && !cb(0.7 + 0.3 * double(b + len) / double(m), "nhnet")) throw Cancelled();
   }
   if (kept > 0)
     res.warnings.push_back(std::to_string(kept) +

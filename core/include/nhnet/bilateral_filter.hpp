@@ -25,12 +25,13 @@ struct BilateralFilterOptions {
   int spacing_k = 8;
 };
 
-/// Filters `normals` (N x 3, unoriented) over the first `k` columns of `knn` (N x K, self first).
-/// Returns N x 3 (1 + |sigma_s| |sigma_r|): the input normal first, then for each sigma_s the
+/// Filters `normals` (N x 3, unoriented) over the first `k` columns of `knn` (M x K, self first;
+/// row r lists the neighbours of point `first` + r, so a block of points can be done at a time).
+/// Returns M x 3 (1 + |sigma_s| |sigma_r|): the input normal first, then for each sigma_s the
 /// sigma_r in order; all on the input normal's side. Rows with a non-finite input normal are NaN.
 FeatureNormals bilateral_filter(const Points& points, const Normals& normals,
                                 const IndexMatrix& knn, int k,
                                 const BilateralFilterOptions& options = {},
-                                const RunContext& run = {});
+                                const RunContext& run = {}, Eigen::Index first = 0);
 
 }  // namespace nhnet

@@ -32,9 +32,10 @@ struct CanonicalFrames {
   FeatureNormals rotated;
 };
 
-/// Frames of every row of `normals` (N x 3 F, from bilateral_filter) of `points` (N x 3) with
-/// neighbour table `knn` (first `k` columns used for the sign fallback).
+/// Frames of every row of `normals` (M x 3 F, from bilateral_filter) with neighbour table `knn`
+/// (M x K, first `k` columns used for the signs); row r belongs to point `first` + r of `points`.
 CanonicalFrames canonical_frames(const Points& points, const IndexMatrix& knn, int k,
-                                 const FeatureNormals& normals, const RunContext& run = {});
+                                 const FeatureNormals& normals, const RunContext& run = {},
+                                 Eigen::Index first = 0);
 
 }  // namespace nhnet

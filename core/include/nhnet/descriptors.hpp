@@ -52,11 +52,28 @@ struct Descriptors {
 };
 
 /// Descriptors of points that already have normals: `points` and `normals` (N x 3, all rows
-/// finite), `knn` their neighbour table with at least `k` columns. Writes N x D features and the
-/// rotations.
+/// finite), `knn` the neighbour table (M x K, K >= k) of points `first` .. `first` + M - 1, so
+/// a cloud can be described block by block. Writes M x D features and the M rotations.
 void compute_descriptors(const Points& points, const Normals& normals, const IndexMatrix& knn,
                          int k, const DescriptorOptions& options, DescriptorMatrix& features,
-                         Rotations& rotations, const RunContext& run = {});
+                         Rotations& rotations, const RunContext& run = {},
+                         Eigen::Index first = 0);
+
+/// What the descriptors of a cloud need, computed once: the geometry stage's result (MFPS
+/// normals), the input rows that have a normal, those points, normals and their k-NN table.
+struct DescriptorInput {
+  EstimateResult geometry;
+  std::vector<Eigen::Index> rows;
+  Points points;
+  Normals normals;
+  IndexMatrix knn;
+  int k = 0;
+};
+
+/// Runs the geometry stage (estimate_normals, MFPS) and builds the neighbour table of the points
+/// with a normal (k = ceil(factor * smallest MFPS scale)). Fewer than spacing_k + 1 such points
+/// leave `rows` empty (with a warning).
+DescriptorInput prepare_descriptors(const Points& points, const DescriptorOptions& options);
 
 /// The whole chain for a cloud: MFPS normals (estimate_normals), then the descriptors of every
 /// point with a valid normal. Throws like estimate_normals.

@@ -47,7 +47,7 @@ struct EstimateOptions {
   std::string model;
   /// NH-Net device: "auto" (CUDA if available, else CPU), "cpu" or "cuda".
   std::string device = "auto";
-  /// NH-Net inference batch (points per forward pass).
+  /// NH-Net block size: points whose descriptors are computed and run through the model at once.
   int nhnet_batch = 4096;
   /// Threads (0 = all cores) and progress/cancel callback.
   RunContext run;

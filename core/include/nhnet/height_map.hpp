@@ -32,10 +32,10 @@ struct HeightMapOptions {
   double ball = 0.9;
 };
 
-/// Maps of every point from the first `k` columns of `knn` (N x K, self first) and its frame.
-/// Rows whose frame is non-finite are NaN.
+/// Maps from the first `k` columns of `knn` (M x K, self first) and the frames (M rows); row r
+/// belongs to point `first` + r of `points`. Rows whose frame is non-finite are NaN.
 HeightMaps height_maps(const Points& points, const IndexMatrix& knn, int k,
                        const CanonicalFrames& frames, const HeightMapOptions& options = {},
-                       const RunContext& run = {});
+                       const RunContext& run = {}, Eigen::Index first = 0);
 
 }  // namespace nhnet
