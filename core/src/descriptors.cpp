@@ -11,20 +11,6 @@
 
 namespace nhnet {
 
-namespace {
-RunContext narrow(const RunContext& run, double begin, double end) {
-  RunContext r;
-  r.threads = run.threads;
-  if (run.progress) {
-    ProgressCallback cb = run.progress;
-    r.progress = [cb, begin, end](double f, const std::string& stage) {
-      return cb(begin + (end - begin) * f, stage);
-    };
-  }
-  return r;
-}
-}  // namespace
-
 int descriptor_size(const DescriptorOptions& options) {
   const int f = 1 + int(options.filter.sigma_s.size() * options.filter.sigma_r.size());
   return 3 * f + f * options.map.size * options.map.size;
@@ -34,11 +20,11 @@ void compute_descriptors(const Points& points, const Normals& normals, const Ind
                          int k, const DescriptorOptions& options, DescriptorMatrix& features,
                          Rotations& rotations, const RunContext& run, Eigen::Index first) {
   const FeatureNormals filtered =
-      bilateral_filter(points, normals, knn, k, options.filter, narrow(run, 0, 0.4), first);
+      bilateral_filter(points, normals, knn, k, options.filter, detail::narrow(run, 0, 0.4), first);
   CanonicalFrames frames =
-      canonical_frames(points, knn, k, filtered, narrow(run, 0.4, 0.5), first);
+      canonical_frames(points, knn, k, filtered, detail::narrow(run, 0.4, 0.5), first);
   const HeightMaps maps =
-      height_maps(points, knn, k, frames, options.map, narrow(run, 0.5, 1), first);
+      height_maps(points, knn, k, frames, options.map, detail::narrow(run, 0.5, 1), first);
   const Eigen::Index n = knn.rows(), nf = filtered.cols();
   features.resize(n, nf + maps.cols());
   features.leftCols(nf) = frames.rotated.cast<float>();
@@ -52,7 +38,7 @@ DescriptorInput prepare_descriptors(const Points& points, const DescriptorOption
   DescriptorInput in;
   EstimateOptions eo = options.estimate;
   eo.method = Method::Mfps;
-  eo.run = narrow(options.estimate.run, 0, 0.9);
+  eo.run = detail::narrow(options.estimate.run, 0, 0.9);
   in.geometry = estimate_normals(points, eo);
   const Eigen::Index n = points.rows();
   for (Eigen::Index i = 0; i < n; ++i)
@@ -75,13 +61,13 @@ DescriptorInput prepare_descriptors(const Points& points, const DescriptorOption
       m, std::max(options.filter.spacing_k + 1,
                   int(std::ceil(options.neighborhood_factor * kmin - 1e-9)))));
   Neighbors tree(in.points);
-  tree.knn_all(in.k, in.knn, nullptr, narrow(options.estimate.run, 0.9, 1));
+  tree.knn_all(in.k, in.knn, nullptr, detail::narrow(options.estimate.run, 0.9, 1));
   return in;
 }
 
 Descriptors describe(const Points& points, const DescriptorOptions& options) {
   DescriptorOptions o = options;
-  o.estimate.run = narrow(options.estimate.run, 0, 0.8);
+  o.estimate.run = detail::narrow(options.estimate.run, 0, 0.8);
   DescriptorInput in = prepare_descriptors(points, o);
   Descriptors out;
   const Eigen::Index n = points.rows();
@@ -92,7 +78,7 @@ Descriptors describe(const Points& points, const DescriptorOptions& options) {
     DescriptorMatrix feat;
     Rotations rot;
     compute_descriptors(in.points, in.normals, in.knn, in.k, options, feat, rot,
-                        narrow(options.estimate.run, 0.8, 1));
+                        detail::narrow(options.estimate.run, 0.8, 1));
     for (size_t i = 0; i < in.rows.size(); ++i) {
       out.features.row(in.rows[i]) = feat.row(Eigen::Index(i));
       out.rotations.row(in.rows[i]) = rot.row(Eigen::Index(i));

@@ -53,18 +53,6 @@ int64_t orient_like(Normals& normals, const Normals& reference) {
 namespace nhnet {
 
 namespace {
-/// Narrows the user's callback to [begin, end] of the overall range.
-RunContext narrow(const RunContext& run, double begin, double end) {
-  RunContext r;
-  r.threads = run.threads;
-  if (run.progress) {
-    ProgressCallback cb = run.progress;
-    r.progress = [cb, begin, end](double f, const std::string& stage) {
-      return cb(begin + (end - begin) * f, stage);
-    };
-  }
-  return r;
-}
 
 int max_scale(const std::vector<int>& scales) {
   return scales.empty() ? 0 : *std::max_element(scales.begin(), scales.end());
@@ -113,9 +101,9 @@ EstimateResult estimate_normals(const Points& points, const EstimateOptions& opt
   const int kprobe = int(std::min<Eigen::Index>(kNoiseProbeK, m));
   IndexMatrix knn;
   DistanceMatrix d2;
-  if (need_probe) tree.knn_all(kprobe, knn, &d2, narrow(run, 0.02, 0.12));
+  if (need_probe) tree.knn_all(kprobe, knn, &d2, detail::narrow(run, 0.02, 0.12));
   if (need_probe && kprobe >= 4) {
-    const PcaResult probe = pca_normals(pts, knn, PcaOptions{kprobe}, narrow(run, 0.12, 0.2));
+    const PcaResult probe = pca_normals(pts, knn, PcaOptions{kprobe}, detail::narrow(run, 0.12, 0.2));
     const NoiseEstimate ne = estimate_noise(d2, probe.residual_rms);
     res.noise_ratio = ne.ratio;
     res.spacing = ne.spacing;
@@ -136,9 +124,9 @@ EstimateResult estimate_normals(const Points& points, const EstimateOptions& opt
                            std::to_string(m) + " finite points; scales clamped");
   // Rows are sorted by distance, so the probe's table serves any smaller size as its prefix.
   const int kdepth = int(std::min<Eigen::Index>(kneed, m));
-  if (kdepth > knn.cols()) tree.knn_all(kdepth, knn, nullptr, narrow(run, 0.2, 0.35));
+  if (kdepth > knn.cols()) tree.knn_all(kdepth, knn, nullptr, detail::narrow(run, 0.2, 0.35));
 
-  const PcaResult pca = pca_normals(pts, knn, PcaOptions{res.k_used}, narrow(run, 0.35, 0.45));
+  const PcaResult pca = pca_normals(pts, knn, PcaOptions{res.k_used}, detail::narrow(run, 0.35, 0.45));
   Normals out = pca.normals;
   if (options.method == Method::Mfps) {
     const FeatureDetection fd = detect_feature_candidates(pca.variation);
@@ -146,7 +134,7 @@ EstimateResult estimate_normals(const Points& points, const EstimateOptions& opt
     BandwidthOptions bo;
     bo.k_patch = res.k_used;
     bo.k_average = kdepth;
-    const Eigen::VectorXd bw = residual_bandwidth(pts, knn, res.spacing, bo, narrow(run, 0.45, 0.55));
+    const Eigen::VectorXd bw = residual_bandwidth(pts, knn, res.spacing, bo, detail::narrow(run, 0.45, 0.55));
     MfpsOptions mo;
     mo.scales = choice.scales;
     for (int& s : mo.scales) s = int(std::min<Eigen::Index>(s, m));
@@ -157,7 +145,7 @@ EstimateResult estimate_normals(const Points& points, const EstimateOptions& opt
     mo.refine_iterations = options.mfps_refine_iterations;
     mo.soft_gamma = options.mfps_soft_gamma;
     const MfpsResult mr = mfps_normals(pts, knn, 2.0 * bw, fd.candidate, pca.normals, mo,
-                                       narrow(run, 0.55, 1.0));
+                                       detail::narrow(run, 0.55, 1.0));
     res.scales_used = mo.scales;
     out = mr.normals;
   }

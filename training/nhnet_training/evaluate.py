@@ -19,8 +19,11 @@ import numpy as np
 import torch
 
 
-def pick_clouds(data_dir: str, per_category: int, categories=None):
+def pick_clouds(data_dir: str, per_category: int, categories=None, names=None):
     index = json.loads((Path(data_dir) / "benchmark" / "index.json").read_text())
+    if names:
+        by_name = {c["name"]: c for c in index["clouds"]}
+        return [by_name[n] for n in names]
     by_cat = {}
     for c in index["clouds"]:
         by_cat.setdefault(c["category"], []).append(c)
@@ -83,6 +86,7 @@ def main(argv=None) -> int:
     ap.add_argument("--model", nargs="*", default=[], help="TorchScript model(s) to compare")
     ap.add_argument("--per-category", type=int, default=3)
     ap.add_argument("--categories", nargs="*")
+    ap.add_argument("--clouds", nargs="*", help="these benchmark clouds instead of a per-category pick")
     ap.add_argument("--points", type=int, default=20000, help="evaluated points per cloud")
     ap.add_argument("--cache", default="runs/bench_cache")
     ap.add_argument("--threads", type=int, default=2)
@@ -91,7 +95,7 @@ def main(argv=None) -> int:
     torch.set_num_threads(a.threads)
     models = [(Path(m).stem, torch.jit.load(m).eval()) for m in a.model]
     rows = []
-    for c in pick_clouds(a.data_dir, a.per_category, a.categories):
+    for c in pick_clouds(a.data_dir, a.per_category, a.categories, a.clouds):
         d = cloud_data(a.data_dir, c, a.points, Path(a.cache), a.threads)
         r = {"cloud": c["name"], "category": c["category"], "mfps": float(angles(d["mfps"], d["gt"]).mean())}
         for name, m in models:
