@@ -28,6 +28,8 @@ struct EstimateArgs {
   std::string threads = "0";
   std::string orient;  // empty = keep when the input has normals, mst otherwise
   std::string seed = "1";
+  std::string model;            // empty = the shipped model
+  std::string device = "auto";  // NH-Net device
   bool ascii = false, overwrite = false, quiet = false, json = false;
 };
 
@@ -45,6 +47,12 @@ int run_estimate(const EstimateArgs& a) {
   opt.scales = parse_scales(a.scales);
   opt.run.threads = parse_int("--threads", a.threads, 0);
   opt.seed = parse_u64("--seed", a.seed);
+  opt.model = a.model;
+  opt.device = a.device;
+  if (a.device != "auto" && a.device != "cpu" && a.device != "cuda")
+    throw nhnet::InvalidOptions("--device must be auto, cpu or cuda, got '" + a.device + "'");
+  if (opt.method != nhnet::Method::NhNet && (!a.model.empty() || a.device != "auto"))
+    throw nhnet::InvalidOptions("--model and --device only apply to --method nhnet");
   nhnet::OrientOptions orient;
   if (!a.orient.empty()) orient = parse_orient(a.orient);
   orient.run.threads = opt.run.threads;
@@ -77,6 +85,8 @@ int run_estimate(const EstimateArgs& a) {
   nhnet::EstimateResult res = nhnet::estimate_normals(cloud.points, opt);
   rep.clear();
   for (const auto& w : res.warnings) rep.warn(w);
+  if (opt.method == nhnet::Method::NhNet && opt.device == "auto" && !a.quiet)
+    std::cerr << "nhnet-cli: NH-Net ran on " << res.device_used << " (--device auto)" << std::endl;
   throw_if_interrupted();
 
   orient.run.progress = rep.callback(est_end, 1.0);
@@ -135,7 +145,12 @@ Command add_estimate_command(CLI::App& parent) {
   CLI::App* sub = parent.add_subcommand(
       "estimate", "Estimate unit normals of a point cloud and write the cloud with them");
   add_in_out(sub, args->in, args->out);
-  sub->add_option("-m,--method", args->method, "pca | mfps (default: mfps)")->type_name("NAME");
+  sub->add_option("-m,--method", args->method, "pca | mfps | nhnet (default: mfps)")->type_name("NAME");
+  sub->add_option("--model", args->model,
+                  "NH-Net model (TorchScript from nhnet-export; default: the shipped models/nhnet.pt)")
+      ->type_name("PATH");
+  sub->add_option("--device", args->device, "NH-Net device: auto | cpu | cuda (default: auto)")
+      ->type_name("DEV");
   sub->add_option("-k,--k", args->k,
                   "PCA neighbourhood size, >= 3 (default: chosen from the noise level)")
       ->type_name("K");

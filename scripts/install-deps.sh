@@ -28,6 +28,8 @@ PKGS=(
   cloudcompare
   # the plugins' README screenshots (plugins/meshlab/screenshots.sh, scripts/cc-screenshots.sh)
   xdotool imagemagick
+  # NH-Net: training (python3-torch) and inference in the core (libtorch-dev, same 1.13)
+  python3-torch libtorch-dev
 )
 
 SUDO=""

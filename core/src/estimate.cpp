@@ -8,6 +8,7 @@
 #include "nhnet/bandwidth.hpp"
 #include "nhnet/feature_detection.hpp"
 #include "nhnet/mfps.hpp"
+#include "nhnet/nhnet_model.hpp"
 #include "nhnet/scales.hpp"
 #include "parallel.hpp"
 
@@ -20,13 +21,15 @@ namespace nhnet {
 Method method_from_string(const std::string& name) {
   if (name == "pca") return Method::Pca;
   if (name == "mfps") return Method::Mfps;
-  throw InvalidOptions("unknown method '" + name + "' (expected pca or mfps)");
+  if (name == "nhnet") return Method::NhNet;
+  throw InvalidOptions("unknown method '" + name + "' (expected pca, mfps or nhnet)");
 }
 
 const char* to_string(Method method) {
   switch (method) {
     case Method::Pca: return "pca";
     case Method::Mfps: return "mfps";
+    case Method::NhNet: return "nhnet";
   }
   return "?";
 }
@@ -50,18 +53,6 @@ int64_t orient_like(Normals& normals, const Normals& reference) {
 namespace nhnet {
 
 namespace {
-/// Narrows the user's callback to [begin, end] of the overall range.
-RunContext narrow(const RunContext& run, double begin, double end) {
-  RunContext r;
-  r.threads = run.threads;
-  if (run.progress) {
-    ProgressCallback cb = run.progress;
-    r.progress = [cb, begin, end](double f, const std::string& stage) {
-      return cb(begin + (end - begin) * f, stage);
-    };
-  }
-  return r;
-}
 
 int max_scale(const std::vector<int>& scales) {
   return scales.empty() ? 0 : *std::max_element(scales.begin(), scales.end());
@@ -69,6 +60,7 @@ int max_scale(const std::vector<int>& scales) {
 }  // namespace
 
 EstimateResult estimate_normals(const Points& points, const EstimateOptions& options) {
+  if (options.method == Method::NhNet) return estimate_nhnet(points, options);
   if (options.k < 0 || options.k == 1 || options.k == 2)
     throw InvalidOptions("k must be 0 (auto) or at least 3, got " + std::to_string(options.k));
   for (int s : options.scales)
@@ -110,9 +102,9 @@ EstimateResult estimate_normals(const Points& points, const EstimateOptions& opt
   const int kprobe = int(std::min<Eigen::Index>(kNoiseProbeK, m));
   IndexMatrix knn;
   DistanceMatrix d2;
-  if (need_probe) tree.knn_all(kprobe, knn, &d2, narrow(run, 0.02, 0.12));
+  if (need_probe) tree.knn_all(kprobe, knn, &d2, detail::narrow(run, 0.02, 0.12));
   if (need_probe && kprobe >= 4) {
-    const PcaResult probe = pca_normals(pts, knn, PcaOptions{kprobe}, narrow(run, 0.12, 0.2));
+    const PcaResult probe = pca_normals(pts, knn, PcaOptions{kprobe}, detail::narrow(run, 0.12, 0.2));
     const NoiseEstimate ne = estimate_noise(d2, probe.residual_rms);
     res.noise_ratio = ne.ratio;
     res.spacing = ne.spacing;
@@ -133,9 +125,9 @@ EstimateResult estimate_normals(const Points& points, const EstimateOptions& opt
                            std::to_string(m) + " finite points; scales clamped");
   // Rows are sorted by distance, so the probe's table serves any smaller size as its prefix.
   const int kdepth = int(std::min<Eigen::Index>(kneed, m));
-  if (kdepth > knn.cols()) tree.knn_all(kdepth, knn, nullptr, narrow(run, 0.2, 0.35));
+  if (kdepth > knn.cols()) tree.knn_all(kdepth, knn, nullptr, detail::narrow(run, 0.2, 0.35));
 
-  const PcaResult pca = pca_normals(pts, knn, PcaOptions{res.k_used}, narrow(run, 0.35, 0.45));
+  const PcaResult pca = pca_normals(pts, knn, PcaOptions{res.k_used}, detail::narrow(run, 0.35, 0.45));
   Normals out = pca.normals;
   if (options.method == Method::Mfps) {
     const FeatureDetection fd = detect_feature_candidates(pca.variation);
@@ -143,7 +135,7 @@ EstimateResult estimate_normals(const Points& points, const EstimateOptions& opt
     BandwidthOptions bo;
     bo.k_patch = res.k_used;
     bo.k_average = kdepth;
-    const Eigen::VectorXd bw = residual_bandwidth(pts, knn, res.spacing, bo, narrow(run, 0.45, 0.55));
+    const Eigen::VectorXd bw = residual_bandwidth(pts, knn, res.spacing, bo, detail::narrow(run, 0.45, 0.55));
     MfpsOptions mo;
     mo.scales = choice.scales;
     for (int& s : mo.scales) s = int(std::min<Eigen::Index>(s, m));
@@ -155,7 +147,7 @@ EstimateResult estimate_normals(const Points& points, const EstimateOptions& opt
     mo.point_sigma_factor = options.mfps_point_sigma_factor;
     mo.posterior_beta = options.mfps_posterior_beta;
     const MfpsResult mr = mfps_normals(pts, knn, 2.0 * bw, fd.candidate, pca.normals, mo,
-                                       narrow(run, 0.55, 1.0));
+                                       detail::narrow(run, 0.55, 1.0));
     res.scales_used = mo.scales;
     out = mr.normals;
   }

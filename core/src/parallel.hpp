@@ -49,6 +49,19 @@ class Progress {
   std::atomic<bool> cancelled_{false};
 };
 
+/// `run` with its progress callback narrowed to [begin, end] of the overall range.
+inline RunContext narrow(const RunContext& run, double begin, double end) {
+  RunContext r;
+  r.threads = run.threads;
+  if (run.progress) {
+    ProgressCallback cb = run.progress;
+    r.progress = [cb, begin, end](double f, const std::string& stage) {
+      return cb(begin + (end - begin) * f, stage);
+    };
+  }
+  return r;
+}
+
 inline int thread_count(int requested) {
   return requested > 0 ? requested : std::max(1, omp_get_max_threads());
 }

@@ -15,9 +15,10 @@ namespace nhnet {
 enum class Method {
   Pca,   ///< plain PCA over the k nearest neighbours
   Mfps,  ///< PCA for smooth points + multi-scale fitting patch selection near features
+  NhNet,  ///< MFPS refined by the trained NH-Net (paper Sec. 5; needs libtorch, nhnet_model.hpp)
 };
 
-/// Parses "pca" / "mfps"; throws InvalidOptions otherwise.
+/// Parses "pca" / "mfps" / "nhnet"; throws InvalidOptions otherwise.
 Method method_from_string(const std::string& name);
 const char* to_string(Method method);
 
@@ -43,6 +44,13 @@ struct EstimateOptions {
   /// (tools/README.md).
   double mfps_point_sigma_factor = 4;
   double mfps_posterior_beta = 24;
+  /// NH-Net model file (TorchScript from nhnet-export); empty = the shipped model
+  /// (default_model_path() in nhnet_model.hpp).
+  std::string model;
+  /// NH-Net device: "auto" (CUDA if available, else CPU), "cpu" or "cuda".
+  std::string device = "auto";
+  /// NH-Net block size: points whose descriptors are computed and run through the model at once.
+  int nhnet_batch = 4096;
   /// Threads (0 = all cores) and progress/cancel callback.
   RunContext run;
 };
@@ -67,6 +75,10 @@ struct EstimateResult {
   int k_used = 0;
   /// MFPS patch sizes that were used (empty for PCA).
   std::vector<int> scales_used;
+  /// NH-Net only: the device the model ran on ("cpu" / "cuda") and the descriptor
+  /// neighbourhood size.
+  std::string device_used;
+  int descriptor_k = 0;
   /// Non-fatal notes for the user (clamped neighbourhoods, non-finite points, ...).
   std::vector<std::string> warnings;
 };

@@ -1,0 +1,177 @@
+// NH-Net inference through libtorch (TorchScript); see nhnet_model.hpp. The only file of the
+// core that includes libtorch.
+#include "nhnet/nhnet_model.hpp"
+
+#include "nhnet/errors.hpp"
+
+#include <torch/script.h>
+#include <torch/cuda.h>
+#include <ATen/Parallel.h>
+
+#include <omp.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <limits>
+#include <sstream>
+#include <vector>
+
+#ifndef NHNET_MODEL_INSTALL_PATH
+#define NHNET_MODEL_INSTALL_PATH ""
+#endif
+#ifndef NHNET_MODEL_SOURCE_PATH
+#define NHNET_MODEL_SOURCE_PATH ""
+#endif
+
+namespace nhnet {
+
+namespace {
+
+bool file_exists(const std::string& p) { return !p.empty() && std::ifstream(p).good(); }
+
+/// The raw JSON text of `key`'s value in a flat-ish JSON object (numbers, strings, arrays of
+/// numbers), as json.dumps writes it; empty if absent.
+std::string json_value(const std::string& json, const std::string& key) {
+  const std::string k = "\"" + key + "\":";
+  size_t p = json.find(k);
+  if (p == std::string::npos) return {};
+  p += k.size();
+  while (p < json.size() && json[p] == ' ') ++p;
+  size_t e = p;
+  if (p < json.size() && json[p] == '[') {
+    e = json.find(']', p);
+    return e == std::string::npos ? std::string() : json.substr(p, e - p + 1);
+  }
+  if (p < json.size() && json[p] == '"') {
+    e = json.find('"', p + 1);
+    return e == std::string::npos ? std::string() : json.substr(p + 1, e - p - 1);
+  }
+  while (e < json.size() && json[e] != ',' && json[e] != '}') ++e;
+  return json.substr(p, e - p);
+}
+
+std::vector<double> numbers(const std::string& text) {
+  std::vector<double> out;
+  std::string t = text;
+  for (char& c : t)
+    if (c == '[' || c == ']' || c == ',') c = ' ';
+  std::istringstream in(t);
+  double v;
+  while (in >> v) out.push_back(v);
+  return out;
+}
+
+void check_numbers(const std::string& meta, const std::string& key, const std::vector<double>& want,
+                   const std::string& path) {
+  const std::vector<double> got = numbers(json_value(meta, key));
+  bool same = got.size() == want.size();
+  for (size_t i = 0; same && i < got.size(); ++i) same = std::abs(got[i] - want[i]) < 1e-9;
+  if (!same) {
+    std::ostringstream w;
+    for (double v : want) w << v << ' ';
+    throw InvalidOptions("model " + path + " was trained with " + key + " = " +
+                         json_value(meta, key) + " but this nhnet computes " + w.str() +
+                         "; retrain it (nhnet-train) or use a model made for this version");
+  }
+}
+
+void check_metadata(const std::string& meta, const std::string& path) {
+  if (json_value(meta, "format") != "nhnet-model")
+    throw InvalidOptions("model " + path + " has no nhnet metadata (nhnet.json); export it with "
+                         "nhnet-export");
+  const DescriptorOptions d;
+  check_numbers(meta, "descriptor_version", {double(kDescriptorVersion)}, path);
+  check_numbers(meta, "descriptor_size", {double(descriptor_size(d))}, path);
+  check_numbers(meta, "patch_size", {double(d.map.size)}, path);
+  check_numbers(meta, "sigma_s", d.filter.sigma_s, path);
+  check_numbers(meta, "sigma_r", d.filter.sigma_r, path);
+  check_numbers(meta, "neighborhood_factor", {d.neighborhood_factor}, path);
+  if (json_value(meta, "height_normalisation") != kHeightNormalisation)
+    throw InvalidOptions("model " + path + " expects height normalisation '" +
+                         json_value(meta, "height_normalisation") + "' but this nhnet computes '" +
+                         kHeightNormalisation + "'; retrain it (nhnet-train)");
+}
+
+}  // namespace
+
+bool nhnet_available() { return true; }
+
+std::string default_model_path() {
+  if (const char* env = std::getenv("NHNET_MODEL"); env && *env) return env;
+  if (file_exists(NHNET_MODEL_INSTALL_PATH)) return NHNET_MODEL_INSTALL_PATH;
+  return NHNET_MODEL_SOURCE_PATH;
+}
+
+struct NhNetModel::Impl {
+  torch::jit::script::Module module;
+  torch::Device dev{torch::kCPU};
+  std::string device;
+  std::string meta;
+};
+
+NhNetModel::NhNetModel(const std::string& path, const std::string& device, int threads)
+    : impl_(std::make_unique<Impl>()) {
+  if (device != "auto" && device != "cpu" && device != "cuda")
+    throw InvalidOptions("device must be auto, cpu or cuda, got '" + device + "'");
+  if (threads < 0) throw InvalidOptions("threads must be >= 0");
+  const bool cuda = torch::cuda::is_available();
+  if (device == "cuda" && !cuda)
+    throw InvalidOptions("--device cuda: the linked libtorch has no CUDA support or no GPU is "
+                         "visible; use --device cpu (or auto)");
+  impl_->device = (device == "cuda" || (device == "auto" && cuda)) ? "cuda" : "cpu";
+  impl_->dev = impl_->device == "cuda" ? torch::Device(torch::kCUDA) : torch::Device(torch::kCPU);
+  if (!file_exists(path))
+    throw InputError("no NH-Net model at '" + path + "': pass --model PATH (train one with "
+                     "nhnet-train, see training/README.md) or use --method mfps");
+  torch::jit::ExtraFilesMap extra{{"nhnet.json", ""}};
+  try {
+    impl_->module = torch::jit::load(path, impl_->dev, extra);
+  } catch (const std::exception& e) {
+    throw InputError("cannot load NH-Net model '" + path + "' (not a TorchScript archive?): " +
+                     std::string(e.what()).substr(0, 300));
+  }
+  impl_->meta = extra["nhnet.json"];
+  check_metadata(impl_->meta, path);
+  impl_->module.eval();
+  at::set_num_threads(threads > 0 ? threads : std::max(1, omp_get_max_threads()));
+}
+
+NhNetModel::~NhNetModel() = default;
+NhNetModel::NhNetModel(NhNetModel&&) noexcept = default;
+NhNetModel& NhNetModel::operator=(NhNetModel&&) noexcept = default;
+const std::string& NhNetModel::device() const { return impl_->device; }
+const std::string& NhNetModel::metadata() const { return impl_->meta; }
+
+Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor> NhNetModel::infer(
+    const DescriptorMatrix& features, int batch, const RunContext& run) const {
+  if (batch < 1) throw InvalidOptions("batch must be >= 1");
+  const Eigen::Index n = features.rows(), d = features.cols();
+  Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor> out;
+  out.setConstant(n, 3, std::numeric_limits<float>::quiet_NaN());
+  std::vector<Eigen::Index> rows;
+  rows.reserve(size_t(n));
+  for (Eigen::Index i = 0; i < n; ++i)
+    if (features.row(i).allFinite()) rows.push_back(i);
+  torch::InferenceMode guard;
+  std::vector<float> buf;
+  for (size_t b = 0; b < rows.size(); b += size_t(batch)) {
+    const size_t e = std::min(rows.size(), b + size_t(batch));
+    buf.resize((e - b) * size_t(d));
+    for (size_t r = b; r < e; ++r)
+      std::copy(features.row(rows[r]).data(), features.row(rows[r]).data() + d,
+                buf.data() + (r - b) * size_t(d));
+    torch::Tensor x =
+        torch::from_blob(buf.data(), {int64_t(e - b), int64_t(d)}, torch::kFloat32).to(impl_->dev);
+    torch::Tensor y = impl_->module.forward({x}).toTensor().to(torch::kCPU).contiguous();
+    if (y.dim() != 2 || y.size(0) != int64_t(e - b) || y.size(1) != 3)
+      throw InvalidOptions("the NH-Net model returned a tensor of the wrong shape (expected B x 3)");
+    const float* p = y.data_ptr<float>();
+    for (size_t r = b; r < e; ++r)
+      for (int c = 0; c < 3; ++c) out(rows[r], c) = p[(r - b) * 3 + size_t(c)];
+    if (run.progress && !run.progress(double(e) / double(rows.size()), "nhnet")) throw Cancelled();
+  }
+  return out;
+}
+
+}  // namespace nhnet

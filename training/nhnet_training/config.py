@@ -1,0 +1,76 @@
+"""Training configuration: one dataclass, saved with every checkpoint and exported model."""
+from __future__ import annotations
+
+import dataclasses
+import json
+from dataclasses import dataclass, field
+from typing import List
+
+# Must match the core (core/include/nhnet/descriptors.hpp); the C++ loader checks these.
+DESCRIPTOR_VERSION = 1
+HEIGHT_NORMALISATION = "cell"
+SIGMA_S = [1.0, 2.0]
+SIGMA_R = [0.1, 0.2, 0.35, 0.5]
+PATCH_SIZE = 7
+NEIGHBORHOOD_FACTOR = 1.5
+NUM_NORMALS = 1 + len(SIGMA_S) * len(SIGMA_R)
+
+
+def descriptor_size(patch: int = PATCH_SIZE, normals: int = NUM_NORMALS) -> int:
+    return 3 * normals + normals * patch * patch
+
+
+@dataclass
+class TrainConfig:
+    # data
+    data_dir: str = "data/generated"          # nhnet-datagen output (its train/ split is used)
+    noise_levels: List[float] = field(default_factory=lambda: [0.05, 0.1, 0.2, 0.3, 0.6])
+    variants: List[str] = field(default_factory=lambda: ["uniform"])
+    samples_per_cloud: int = 4000              # random points kept per training cloud
+    val_fraction: float = 0.15                 # per point, as the authors (85/15)
+    max_clouds: int = 0                        # 0 = all matching clouds
+    cache: str = ""                            # .npz of the built dataset ("" = none)
+    # network (authors: 64/128 channels, 1.34M parameters per cluster network)
+    conv1: int = 16
+    conv2: int = 32
+    hidden1: int = 64
+    hidden2: int = 32
+    dropout: float = 0.3
+    residual: bool = True                      # output = normalise(self normal + correction)
+    # optimisation (authors: SGD lr 1e-4 momentum 0.9 wd 0.02, batch 512, patience 30)
+    optimizer: str = "adam"
+    lr: float = 1e-3
+    weight_decay: float = 1e-5
+    batch: int = 512
+    epochs: int = 20
+    patience: int = 5
+    max_minutes: float = 35.0                  # wall-clock cap of the training loop
+    threads: int = 2
+    seed: int = 1
+    # output
+    out_dir: str = "runs/nhnet"
+
+    def to_json(self) -> str:
+        return json.dumps(dataclasses.asdict(self), sort_keys=True)
+
+    @staticmethod
+    def from_dict(d: dict) -> "TrainConfig":
+        names = {f.name for f in dataclasses.fields(TrainConfig)}
+        return TrainConfig(**{k: v for k, v in d.items() if k in names})
+
+
+def metadata(cfg: TrainConfig) -> dict:
+    """What the C++ loader checks (descriptor definition) plus provenance."""
+    return {
+        "format": "nhnet-model",
+        "descriptor_version": DESCRIPTOR_VERSION,
+        "descriptor_size": descriptor_size(),
+        "num_normals": NUM_NORMALS,
+        "sigma_s": SIGMA_S,
+        "sigma_r": SIGMA_R,
+        "patch_size": PATCH_SIZE,
+        "neighborhood_factor": NEIGHBORHOOD_FACTOR,
+        "height_normalisation": HEIGHT_NORMALISATION,
+        "output": "unit normal in the canonical frame",
+        "config": dataclasses.asdict(cfg),
+    }

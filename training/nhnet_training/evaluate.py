@@ -1,0 +1,121 @@
+"""Benchmark subset evaluation of NH-Net against MFPS, both from one core call per cloud.
+
+`nhnet.descriptors` returns the MFPS normals (the geometry stage, = `nhnet-cli estimate --method
+mfps`) and the descriptors; the exported TorchScript model (= what `nhnet-cli estimate --method
+nhnet` runs; tests/core/test_nhnet_model.cpp checks C++ == Python) refines them. Errors are the
+unoriented angles to the ground truth (as `nhnet-cli eval`), on a fixed random subset of each
+cloud's points (the whole cloud is processed).
+
+    nhnet-evaluate --data-dir data/generated --model models/nhnet.pt --per-category 3
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+
+
+def pick_clouds(data_dir: str, per_category: int, categories=None, names=None):
+    index = json.loads((Path(data_dir) / "benchmark" / "index.json").read_text())
+    if names:
+        by_name = {c["name"]: c for c in index["clouds"]}
+        return [by_name[n] for n in names]
+    by_cat = {}
+    for c in index["clouds"]:
+        by_cat.setdefault(c["category"], []).append(c)
+    out = []
+    for cat in sorted(by_cat):
+        if categories and cat not in categories:
+            continue
+        cl = sorted(by_cat[cat], key=lambda c: c["name"])
+        step = len(cl) / per_category
+        out += [cl[int(i * step + step / 2)] for i in range(min(per_category, len(cl)))]
+    return out
+
+
+def cloud_data(data_dir: str, c: dict, points: int, cache: Path, threads: int):
+    f = cache / f"{c['name']}.npz"
+    if f.exists():
+        with np.load(f) as z:
+            return {k: z[k] for k in z.files}
+    import nhnet
+
+    base = Path(data_dir) / "benchmark"
+    xyz = np.loadtxt(base / c["files"][0], ndmin=2)
+    gt = np.loadtxt(base / c["files"][1], ndmin=2)
+    t0 = time.time()
+    d = nhnet.descriptors(xyz, threads=threads)
+    secs = time.time() - t0
+    rng = np.random.default_rng(12345)
+    rows = np.sort(rng.choice(len(xyz), min(points, len(xyz)), replace=False))
+    out = {"rows": rows, "features": d["features"][rows], "rotations": d["rotations"][rows],
+           "mfps": d["normals"][rows], "gt": gt[rows], "valid": d["valid"][rows],
+           "seconds": np.array(secs), "n": np.array(len(xyz))}
+    cache.mkdir(parents=True, exist_ok=True)
+    np.savez(f.with_suffix(".tmp.npz"), **out)
+    f.with_suffix(".tmp.npz").replace(f)
+    return out
+
+
+def angles(n, gt):
+    cos = np.abs(np.sum(n * gt, axis=1)) / (np.linalg.norm(n, axis=1) * np.linalg.norm(gt, axis=1))
+    return np.degrees(np.arccos(np.clip(cos, 0, 1)))
+
+
+def refine(model, d, batch=4096):
+    x = torch.from_numpy(np.ascontiguousarray(d["features"], dtype=np.float32))
+    ok = np.isfinite(d["features"]).all(axis=1)
+    local = np.full((len(x), 3), np.nan)
+    with torch.no_grad():
+        idx = np.flatnonzero(ok)
+        for i in range(0, len(idx), batch):
+            j = idx[i:i + batch]
+            local[j] = model(x[j]).double().numpy()
+    world = np.einsum("nji,nj->ni", d["rotations"], local)  # R^T y
+    return np.where(ok[:, None], world, d["mfps"])
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(prog="nhnet-evaluate", description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--data-dir", default="data/generated")
+    ap.add_argument("--model", nargs="*", default=[], help="TorchScript model(s) to compare")
+    ap.add_argument("--per-category", type=int, default=3)
+    ap.add_argument("--categories", nargs="*")
+    ap.add_argument("--clouds", nargs="*", help="these benchmark clouds instead of a per-category pick")
+    ap.add_argument("--points", type=int, default=20000, help="evaluated points per cloud")
+    ap.add_argument("--cache", default="runs/bench_cache")
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--json", default="", help="write the per-cloud results here")
+    a = ap.parse_args(argv)
+    torch.set_num_threads(a.threads)
+    models = [(Path(m).stem, torch.jit.load(m).eval()) for m in a.model]
+    rows = []
+    for c in pick_clouds(a.data_dir, a.per_category, a.categories, a.clouds):
+        d = cloud_data(a.data_dir, c, a.points, Path(a.cache), a.threads)
+        r = {"cloud": c["name"], "category": c["category"], "mfps": float(angles(d["mfps"], d["gt"]).mean())}
+        for name, m in models:
+            t0 = time.time()
+            r[name] = float(angles(refine(m, d), d["gt"]).mean())
+            r[name + "_pts_per_s"] = len(d["features"]) / (time.time() - t0)
+        rows.append(r)
+        print(json.dumps(r), flush=True)
+    names = ["mfps"] + [n for n, _ in models]
+    cats = sorted({r["category"] for r in rows})
+    print("\n| category | clouds | " + " | ".join(names) + " |")
+    print("|---|---|" + "---|" * len(names))
+    for cat in cats + ["all"]:
+        rs = [r for r in rows if cat == "all" or r["category"] == cat]
+        vals = " | ".join(f"{np.mean([r[n] for r in rs]):.2f}" for n in names)
+        print(f"| {cat} | {len(rs)} | {vals} |")
+    if a.json:
+        Path(a.json).write_text(json.dumps(rows, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,58 @@
+"""TorchScript export: the model plus its metadata (descriptor version, scales rule, sigmas,
+patch size, normalisation, training config) as the archive's extra file `nhnet.json`, which the
+C++ loader (core/src/torch/nhnet_model.cpp) checks before using the model."""
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import torch
+
+from .config import TrainConfig, metadata
+from .model import NhNet
+
+META_NAME = "nhnet.json"
+
+
+def load_checkpoint(path: str) -> tuple[NhNet, TrainConfig, dict]:
+    ck = torch.load(path, map_location="cpu")
+    cfg = TrainConfig.from_dict(json.loads(ck["config"]))
+    model = NhNet(cfg)
+    model.load_state_dict(ck["model"])
+    model.eval()
+    return model, cfg, ck.get("info", {})
+
+
+def export(model: NhNet, cfg: TrainConfig, out: str, info: dict | None = None) -> dict:
+    model = model.eval()
+    meta = metadata(cfg)
+    meta["info"] = info or {}
+    scripted = torch.jit.script(model)
+    Path(out).parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(str(out) + ".tmp")
+    torch.jit.save(scripted, str(tmp), _extra_files={META_NAME: json.dumps(meta, sort_keys=True)})
+    tmp.replace(out)
+    return meta
+
+
+def read_metadata(path: str) -> dict:
+    files = {META_NAME: ""}
+    torch.jit.load(path, map_location="cpu", _extra_files=files)
+    return json.loads(files[META_NAME])
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(prog="nhnet-export", description="Export a training checkpoint "
+                                 "to a TorchScript model for nhnet-cli --method nhnet.")
+    ap.add_argument("checkpoint")
+    ap.add_argument("out")
+    a = ap.parse_args(argv)
+    model, cfg, info = load_checkpoint(a.checkpoint)
+    export(model, cfg, a.out, info)
+    print(f"exported {a.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
