@@ -29,6 +29,10 @@ if(EXISTS ${PROJECT_SOURCE_DIR}/models)
 endif()
 
 install(EXPORT nhnetTargets NAMESPACE nhnet:: DESTINATION ${NHNET_INSTALL_CMAKEDIR})
+get_property(NHNET_HAS_TORCH GLOBAL PROPERTY NHNET_HAS_TORCH)
+if(NOT NHNET_HAS_TORCH)
+  set(NHNET_HAS_TORCH OFF)
+endif()
 configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/nhnetConfig.cmake.in
   ${PROJECT_BINARY_DIR}/nhnetConfig.cmake
   INSTALL_DESTINATION ${NHNET_INSTALL_CMAKEDIR}
