@@ -106,7 +106,12 @@ int run_estimate(const EstimateArgs& a) {
 
   // 4. Estimate (exit 4 when too few finite points, 130 when interrupted).
   opt.run.progress = rep.callback();
-  nhnet::EstimateResult res = nhnet::estimate_normals(cloud.points, opt);
+  nhnet::EstimateResult res;
+  try {
+    res = nhnet::estimate_normals(cloud.points, opt);
+  } catch (const nhnet::UnprocessableInput& e) {
+    throw nhnet::UnprocessableInput(a.in + ": " + e.what());  // name the file (exit 4)
+  }
   rep.clear();
   for (const auto& w : res.warnings) rep.warn(w);
   throw_if_interrupted();
@@ -196,7 +201,7 @@ Command add_estimate_command(CLI::App& parent) {
       "  nhnet-cli estimate scan.xyz out.pcd --method pca --k 30 --threads 4\n"
       "  nhnet-cli estimate noisy.xyz out.xyzn --scales 50,100,150 --json\n\n"
       "Exit codes: 0 ok, 2 bad parameter, 3 bad input, 4 too few finite points,\n"
-      "6 cannot write output, 7 out of memory, 130 interrupted.\n");
+      "6 cannot write output, 7 out of memory, 130 SIGINT, 143 SIGTERM.\n");
   return Command{sub, [args] { return run_estimate(*args); }};
 }
 

@@ -25,7 +25,8 @@ enum ExitCode : int {
   kUnprocessable = 4,  ///< input readable but cannot be processed (too few finite points)
   kOutput = 6,         ///< output cannot be written (or refused: exists, same as input, ...)
   kMemory = 7,         ///< out of memory
-  kInterrupted = 130,  ///< SIGINT / SIGTERM
+  kInterrupted = 130,  ///< SIGINT (128 + 2, the shell's convention)
+  kTerminated = 143,   ///< SIGTERM (128 + 15)
 };
 
 /// A subcommand: its CLI11 sub-app and what to run when it was selected.

@@ -63,6 +63,27 @@ RunContext narrow(const RunContext& run, double begin, double end) {
   return r;
 }
 
+/// Recentres `pts` (finite) in double and scales it by powers of two so every coordinate lies in
+/// [-2, 2): far-from-origin scans (UTM-scale 1e6 offsets) keep their precision in the float
+/// kd-tree, coordinates near 1e31 or 1e-300 neither overflow float squared distances nor fall
+/// under the absolute floors of the plane fits. Power-of-two factors are exact, so the normals
+/// are those of the same cloud at the origin at unit size. Returns the input length of one
+/// normalised unit.
+double normalise(Points& pts) {
+  double unit = 1.0;
+  // First bring the magnitudes near 1 so that the mean cannot overflow, then recentre, then
+  // scale the extent (which is much smaller than the magnitudes for far-from-origin clouds).
+  for (int pass = 0; pass < 2; ++pass) {
+    if (pass == 1) pts.rowwise() -= pts.colwise().mean();
+    const double max_abs = pts.cwiseAbs().maxCoeff();
+    if (!(max_abs > 0) || !std::isfinite(max_abs)) continue;
+    const int e = std::ilogb(max_abs);
+    pts *= std::ldexp(1.0, -e);
+    unit = std::ldexp(unit, e);
+  }
+  return unit;
+}
+
 int max_scale(const std::vector<int>& scales) {
   return scales.empty() ? 0 : *std::max_element(scales.begin(), scales.end());
 }
@@ -95,6 +116,8 @@ EstimateResult estimate_normals(const Points& points, const EstimateOptions& opt
   const Eigen::Index m = Eigen::Index(finite.size());
   Points pts(m, 3);
   for (Eigen::Index i = 0; i < m; ++i) pts.row(i) = points.row(finite[size_t(i)]);
+  // Work in a normalised frame (see normalise()); `unit` converts lengths back to input units.
+  const double unit = normalise(pts);
 
   const RunContext& run = options.run;
   detail::Progress top(run.progress);
@@ -116,7 +139,20 @@ EstimateResult estimate_normals(const Points& points, const EstimateOptions& opt
     res.noise_ratio = ne.ratio;
     res.spacing = ne.spacing;
   }
+  const double spacing = res.spacing;  // normalised units, for the stages below
   ScaleChoice choice = choose_scales(res.noise_ratio, m);
+  {
+    // Fewer points than the automatic sizes want: the sizes are clamped to the cloud (the
+    // documented fallback), and the user is told.
+    const ScaleChoice wanted = choose_scales(res.noise_ratio, kMaxScale);
+    const bool mfps_auto = options.method == Method::Mfps && options.scales.empty();
+    if ((options.k == 0 && wanted.k_smooth > choice.k_smooth) ||
+        (mfps_auto && max_scale(wanted.scales) > max_scale(choice.scales)))
+      res.warnings.push_back("only " + std::to_string(m) + " finite points, fewer than the " +
+                             std::to_string(mfps_auto ? max_scale(wanted.scales) : wanted.k_smooth) +
+                             " neighbours the automatic scale wants; neighbourhoods clamped to " +
+                             std::to_string(m) + " points");
+  }
   if (options.k > 0) choice.k_smooth = options.k;
   if (!options.scales.empty()) choice.scales = options.scales;
   if (choice.k_smooth > m) {
@@ -142,7 +178,7 @@ EstimateResult estimate_normals(const Points& points, const EstimateOptions& opt
     BandwidthOptions bo;
     bo.k_patch = res.k_used;
     bo.k_average = kdepth;
-    const Eigen::VectorXd bw = residual_bandwidth(pts, knn, res.spacing, bo, narrow(run, 0.45, 0.55));
+    const Eigen::VectorXd bw = residual_bandwidth(pts, knn, spacing, bo, narrow(run, 0.45, 0.55));
     MfpsOptions mo;
     mo.scales = choice.scales;
     for (int& s : mo.scales) s = int(std::min<Eigen::Index>(s, m));
@@ -165,6 +201,7 @@ EstimateResult estimate_normals(const Points& points, const EstimateOptions& opt
       res.valid[size_t(finite[size_t(i)])] = 1;
     }
   }
+  res.spacing = spacing * unit;
   res.failed = int64_t(std::count(res.valid.begin(), res.valid.end(), uint8_t(0)));
   if (res.failed > n - m)
     res.warnings.push_back(std::to_string(res.failed - (n - m)) +
