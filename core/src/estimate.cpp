@@ -84,6 +84,29 @@ double normalise(Points& pts) {
   return unit;
 }
 
+/// Keeps in `rows` (finite row indices of `points`, ascending) only the first row of every
+/// exact position. Returns, for every row of `points`, the row of its first copy (itself when
+/// unique; -1 for rows not in `rows`).
+std::vector<int64_t> dedupe_exact(const Points& points, std::vector<int64_t>& rows) {
+  std::vector<int64_t> first(size_t(points.rows()), -1);
+  std::vector<int64_t> order = rows;
+  const auto less = [&](int64_t a, int64_t b) {
+    for (int d = 0; d < 3; ++d)
+      if (points(a, d) != points(b, d)) return points(a, d) < points(b, d);
+    return false;
+  };
+  std::stable_sort(order.begin(), order.end(), less);  // stable: first copy leads its group
+  std::vector<int64_t> kept;
+  for (size_t i = 0; i < order.size(); ++i) {
+    const bool leads = i == 0 || less(order[i - 1], order[i]);
+    first[size_t(order[i])] = leads ? order[i] : first[size_t(order[i - 1])];
+    if (leads) kept.push_back(order[i]);
+  }
+  std::sort(kept.begin(), kept.end());  // input order
+  rows = std::move(kept);
+  return first;
+}
+
 int max_scale(const std::vector<int>& scales) {
   return scales.empty() ? 0 : *std::max_element(scales.begin(), scales.end());
 }
@@ -107,12 +130,24 @@ EstimateResult estimate_normals(const Points& points, const EstimateOptions& opt
   finite.reserve(size_t(n));
   for (Eigen::Index i = 0; i < n; ++i)
     if (points.row(i).allFinite()) finite.push_back(i);
-  if (finite.size() < 3)
-    throw UnprocessableInput("only " + std::to_string(finite.size()) +
-                             " finite points; at least 3 are needed");
-  if (Eigen::Index(finite.size()) < n)
-    res.warnings.push_back(std::to_string(n - Eigen::Index(finite.size())) +
+  const size_t finite_count = finite.size();
+  if (Eigen::Index(finite_count) < n)
+    res.warnings.push_back(std::to_string(n - Eigen::Index(finite_count)) +
                            " non-finite points skipped (reported as failed)");
+  // Exact duplicates: only the first copy of a position takes part (k copies of one point would
+  // fill its neighbourhood and leave no plane); every copy gets that copy's normal, so a cloud
+  // with duplicated points gets the same normals as the deduplicated cloud.
+  const std::vector<int64_t> copies = dedupe_exact(points, finite);
+  if (finite.size() < 3)
+    throw UnprocessableInput(
+        "only " + std::to_string(finite.size()) +
+        (finite.size() < finite_count ? " distinct" : "") + " finite points" +
+        (finite.size() < finite_count ? " (" + std::to_string(finite_count) + " with duplicates)"
+                                      : std::string()) +
+        "; at least 3 are needed");
+  if (finite.size() < finite_count)
+    res.warnings.push_back(std::to_string(finite_count - finite.size()) +
+                           " exact duplicate points share the normal of their first copy");
   const Eigen::Index m = Eigen::Index(finite.size());
   Points pts(m, 3);
   for (Eigen::Index i = 0; i < m; ++i) pts.row(i) = points.row(finite[size_t(i)]);
@@ -194,6 +229,14 @@ EstimateResult estimate_normals(const Points& points, const EstimateOptions& opt
     out = mr.normals;
   }
 
+  if (options.method == Method::Mfps && kdepth >= 3) {
+    // A candidate whose largest neighbourhood is collinear (or one point) has no plane: MFPS's
+    // random planes through it would be arbitrary, so it stays invalid like its PCA normal.
+    for (Eigen::Index i = 0; i < m; ++i)
+      if (!pca.normals.row(i).allFinite() && out.row(i).allFinite() &&
+          !fit_plane(pts, &knn(i, 0), kdepth, nullptr, nullptr).allFinite())
+        out.row(i).setConstant(std::numeric_limits<double>::quiet_NaN());
+  }
   for (Eigen::Index i = 0; i < m; ++i) {
     const Eigen::RowVector3d nrm = out.row(i);
     if (nrm.allFinite() && nrm.squaredNorm() > 0.5) {
@@ -201,10 +244,18 @@ EstimateResult estimate_normals(const Points& points, const EstimateOptions& opt
       res.valid[size_t(finite[size_t(i)])] = 1;
     }
   }
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const int64_t first = copies[size_t(i)];
+    if (first >= 0 && first != i) {
+      res.normals.row(i) = res.normals.row(first);
+      res.valid[size_t(i)] = res.valid[size_t(first)];
+    }
+  }
   res.spacing = spacing * unit;
   res.failed = int64_t(std::count(res.valid.begin(), res.valid.end(), uint8_t(0)));
-  if (res.failed > n - m)
-    res.warnings.push_back(std::to_string(res.failed - (n - m)) +
+  const int64_t nonfinite = n - int64_t(finite_count);
+  if (res.failed > nonfinite)
+    res.warnings.push_back(std::to_string(res.failed - nonfinite) +
                            " points with a degenerate neighbourhood (identical or collinear "
                            "neighbours) got no normal (reported as failed)");
   if (run.progress) {
