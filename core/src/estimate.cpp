@@ -85,8 +85,11 @@ double normalise(Points& pts) {
 }
 
 /// Keeps in `rows` (finite row indices of `points`, ascending) only the first row of every
-/// exact position. Returns, for every row of `points`, the row of its first copy (itself when
-/// unique; -1 for rows not in `rows`).
+/// exact position, in lexicographic (x, y, z) order of the positions: the pipeline then sees
+/// the same points in the same order whatever the input order, so a permuted cloud gets
+/// bit-identical normals (kd-tree ties, summation order and MFPS's per-patch seeds included).
+/// Returns, for every row of `points`, the row of its first copy (itself when unique; -1 for
+/// rows not in `rows`).
 std::vector<int64_t> dedupe_exact(const Points& points, std::vector<int64_t>& rows) {
   std::vector<int64_t> first(size_t(points.rows()), -1);
   std::vector<int64_t> order = rows;
@@ -102,7 +105,6 @@ std::vector<int64_t> dedupe_exact(const Points& points, std::vector<int64_t>& ro
     first[size_t(order[i])] = leads ? order[i] : first[size_t(order[i - 1])];
     if (leads) kept.push_back(order[i]);
   }
-  std::sort(kept.begin(), kept.end());  // input order
   rows = std::move(kept);
   return first;
 }
@@ -136,7 +138,9 @@ EstimateResult estimate_normals(const Points& points, const EstimateOptions& opt
                            " non-finite points skipped (reported as failed)");
   // Exact duplicates: only the first copy of a position takes part (k copies of one point would
   // fill its neighbourhood and leave no plane); every copy gets that copy's normal, so a cloud
-  // with duplicated points gets the same normals as the deduplicated cloud.
+  // with duplicated points gets the same normals as the deduplicated cloud. The points are
+  // processed in a canonical (sorted) order, which makes the result independent of the input
+  // order.
   const std::vector<int64_t> copies = dedupe_exact(points, finite);
   if (finite.size() < 3)
     throw UnprocessableInput(
