@@ -508,7 +508,12 @@ case_progress_bar() {
 
 # ---- main ----------------------------------------------------------------------------------------
 
-[[ -x $CLI ]] || { echo "not executable: $CLI" >&2; exit 1; }
-declare -F "case_$CASE" >/dev/null || { echo "unknown case: $CASE" >&2; exit 1; }
-"case_$CASE"
-echo "PASS [$CASE]"
+# Runs the selected case. Other case files (bad_input_test.sh) source this file for its helpers
+# and call run_case after defining their own cases.
+run_case() {
+  [[ -x $CLI ]] || { echo "not executable: $CLI" >&2; exit 1; }
+  declare -F "case_$CASE" >/dev/null || { echo "unknown case: $CASE" >&2; exit 1; }
+  "case_$CASE"
+  echo "PASS [$CASE]"
+}
+if [[ ${BASH_SOURCE[0]} == "$0" ]]; then run_case; fi
