@@ -18,6 +18,8 @@ PKGS=(
   libcgal-demo
   # python side: bindings, data generation, training
   python3-dev python3-numpy pybind11-dev
+  # reader fuzzing (scripts/fuzz.sh): clang, its libFuzzer/sanitizer runtimes, its OpenMP
+  clang libclang-rt-14-dev libomp-14-dev
 )
 
 SUDO=""

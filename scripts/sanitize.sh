@@ -13,7 +13,7 @@ flags="-fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-fr
 if [[ ! -f build-asan/CMakeCache.txt ]]; then
   cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=Release -DCMAKE_CXX_FLAGS_RELEASE="-O1" \
     -DCMAKE_CXX_FLAGS="$flags" -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=address,undefined" \
-    -DNHNET_BUILD_TOOLS=OFF
+    -DNHNET_BUILD_TOOLS=OFF -DNHNET_CLI_TEST_TIMEOUT=1500
 fi
 cmake --build build-asan -j2
 
