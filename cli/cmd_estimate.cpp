@@ -202,7 +202,14 @@ Command add_estimate_command(CLI::App& parent) {
       "  nhnet-cli estimate noisy.xyz out.xyzn --scales 50,100,150 --json\n\n"
       "Exit codes: 0 ok, 2 bad parameter, 3 bad input, 4 too few finite points,\n"
       "6 cannot write output, 7 out of memory, 130 SIGINT, 143 SIGTERM.\n");
-  return Command{sub, [args] { return run_estimate(*args); }};
+  return Command{sub, [args] {
+                   try {
+                     return run_estimate(*args);
+                   } catch (const std::bad_alloc&) {  // exit 7, naming the file
+                     throw OutOfMemory(args->in + ": out of memory (the cloud needs more memory "
+                                       "than this process may use; no output written)");
+                   }
+                 }};
 }
 
 }  // namespace nhcli

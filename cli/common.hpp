@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cstdint>
 #include <functional>
+#include <new>
 #include <string>
 #include <vector>
 
@@ -27,6 +28,16 @@ enum ExitCode : int {
   kMemory = 7,         ///< out of memory
   kInterrupted = 130,  ///< SIGINT (128 + 2, the shell's convention)
   kTerminated = 143,   ///< SIGTERM (128 + 15)
+};
+
+/// std::bad_alloc with a message naming the file being processed (exit 7).
+class OutOfMemory : public std::bad_alloc {
+ public:
+  explicit OutOfMemory(std::string message) : message_(std::move(message)) {}
+  const char* what() const noexcept override { return message_.c_str(); }
+
+ private:
+  std::string message_;
 };
 
 /// A subcommand: its CLI11 sub-app and what to run when it was selected.

@@ -50,8 +50,9 @@ int run_guarded(const std::function<int()>& run) {
     return fail(nhcli::kUnprocessable, e.what());
   } catch (const nhnet::OutputError& e) {
     return fail(nhcli::kOutput, e.what());
-  } catch (const std::bad_alloc&) {
-    return fail(nhcli::kMemory, "out of memory");
+  } catch (const std::bad_alloc& e) {
+    const bool named = dynamic_cast<const nhcli::OutOfMemory*>(&e) != nullptr;
+    return fail(nhcli::kMemory, named ? e.what() : "out of memory");
   } catch (const std::exception& e) {
     return fail(nhcli::kFailure, std::string("internal error: ") + e.what());
   } catch (...) {
