@@ -8,9 +8,10 @@ echo "== Debian packages"
 bash scripts/install-deps.sh
 
 echo "== configure and build (build/)"
+# NHNET_BUILD_BENCH: the benchmark (bench/, needs PCL + CGAL from install-deps.sh) is tested too.
 if [[ -f build/CMakeCache.txt ]]; then
-  cmake -S . -B build                      # keep the generator the build dir was made with
+  cmake -S . -B build -DNHNET_BUILD_BENCH=ON   # keep the generator the build dir was made with
 else
-  cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release
+  cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release -DNHNET_BUILD_BENCH=ON
 fi
 cmake --build build -j2

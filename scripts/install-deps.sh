@@ -16,10 +16,20 @@ PKGS=(
   libpcl-dev libcgal-dev
   # meshes the benchmark and training data are sampled from
   libcgal-demo
+  # benchmark: parallel CGAL jet fitting (TBB), its chart (matplotlib), the Open3D venv
+  # (bench/setup-open3d.sh makes it with python3-venv)
+  libtbb-dev python3-matplotlib python3-venv
   # python side: bindings, data generation, training
   python3-dev python3-numpy pybind11-dev
   # reader fuzzing (scripts/fuzz.sh): clang, its libFuzzer/sanitizer runtimes, its OpenMP
   clang libclang-rt-14-dev libomp-14-dev
+  # MeshLab plugin: the stock MeshLab, Qt5 and GLEW headers it compiles against, dpkg-dev to
+  # unpack MeshLab's source package (its headers), xvfb/xauth to run meshlabserver headless
+  meshlab qtbase5-dev libqt5opengl5-dev libglew-dev dpkg-dev xvfb xauth
+  # CloudCompare plugin: the stock CloudCompare (its headers: source package, as MeshLab's)
+  cloudcompare
+  # the plugins' README screenshots (plugins/meshlab/screenshots.sh, scripts/cc-screenshots.sh)
+  xdotool imagemagick
 )
 
 SUDO=""
@@ -34,10 +44,15 @@ done
 
 if [ "${#missing[@]}" -eq 0 ]; then
   echo "install-deps: all ${#PKGS[@]} packages already installed"
-  exit 0
+else
+  echo "install-deps: installing ${#missing[@]} packages: ${missing[*]}"
+  export DEBIAN_FRONTEND=noninteractive
+  $SUDO apt-get update -q
+  $SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"
 fi
 
-echo "install-deps: installing ${#missing[@]} packages: ${missing[*]}"
-export DEBIAN_FRONTEND=noninteractive
-$SUDO apt-get update -q
-$SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"
+# Plugin headers: the source package of the exact installed version, into deps-src/ (ignored by
+# git). Enables deb-src entries derived from this machine's own apt sources when there are none.
+cd "$(dirname "${BASH_SOURCE[0]}")/.."
+bash scripts/apt-source.sh meshlab deps-src >/dev/null
+bash scripts/apt-source.sh cloudcompare deps-src >/dev/null

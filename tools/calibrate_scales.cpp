@@ -81,7 +81,8 @@ int main(int argc, char** argv) {
         if (key == "rescore") o.mfps_rescore = std::stoi(val);
         if (key == "refine") o.mfps_refine_iterations = std::stoi(val);
         if (key == "method") o.method = method_from_string(val);
-        if (key == "gamma") o.mfps_soft_gamma = std::stod(val);
+        if (key == "beta") o.mfps_posterior_beta = std::stod(val);
+        if (key == "fpt") o.mfps_point_sigma_factor = std::stod(val);
         if (key == "s") {
           size_t q = 0;
           while (q < val.size()) {

@@ -126,6 +126,7 @@ EstimateResult estimate_normals(const Points& points, const EstimateOptions& opt
   const Eigen::Index n = points.rows();
   res.normals.setConstant(n, 3, std::numeric_limits<double>::quiet_NaN());
   res.valid.assign(size_t(n), 0);
+  res.curvature.setConstant(n, std::numeric_limits<double>::quiet_NaN());
 
   // Finite points only: a non-finite point neither gets a normal nor disturbs its neighbours.
   std::vector<int64_t> finite;
@@ -226,7 +227,8 @@ EstimateResult estimate_normals(const Points& points, const EstimateOptions& opt
     mo.score_subset = options.mfps_score_subset;
     mo.rescore = options.mfps_rescore;
     mo.refine_iterations = options.mfps_refine_iterations;
-    mo.soft_gamma = options.mfps_soft_gamma;
+    mo.point_sigma_factor = options.mfps_point_sigma_factor;
+    mo.posterior_beta = options.mfps_posterior_beta;
     const MfpsResult mr = mfps_normals(pts, knn, 2.0 * bw, fd.candidate, pca.normals, mo,
                                        narrow(run, 0.55, 1.0));
     res.scales_used = mo.scales;
@@ -246,6 +248,7 @@ EstimateResult estimate_normals(const Points& points, const EstimateOptions& opt
     if (nrm.allFinite() && nrm.squaredNorm() > 0.5) {
       res.normals.row(finite[size_t(i)]) = nrm.normalized();
       res.valid[size_t(finite[size_t(i)])] = 1;
+      res.curvature[finite[size_t(i)]] = pca.variation[i];
     }
   }
   for (Eigen::Index i = 0; i < n; ++i) {

@@ -3,10 +3,12 @@
 #include "nhnet/metrics.hpp"
 
 #include "nhnet/errors.hpp"
+#include "nhnet/neighbors.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <vector>
 
 namespace nhnet {
 
@@ -57,6 +59,32 @@ AngleStats angle_stats(const Eigen::VectorXd& errors_deg) {
 
 AngleStats angle_stats(const Normals& estimated, const Normals& ground_truth) {
   return angle_stats(angle_errors_deg(estimated, ground_truth));
+}
+
+Eigen::VectorXd surface_distances(const Points& points, const Points& reference,
+                                  const Normals& reference_normals) {
+  if (reference.rows() == 0) throw InvalidOptions("surface distances: empty reference");
+  const bool planes = reference_normals.rows() > 0;
+  if (planes && reference_normals.rows() != reference.rows())
+    throw InvalidOptions("surface distances: " + std::to_string(reference_normals.rows()) +
+                         " normals for " + std::to_string(reference.rows()) + " reference points");
+  const Neighbors tree(reference);
+  Eigen::VectorXd d(points.rows());
+  std::vector<int32_t> idx;
+  std::vector<float> d2;
+  for (Eigen::Index i = 0; i < points.rows(); ++i) {
+    const Eigen::Vector3d p = points.row(i).transpose();
+    if (!p.allFinite()) {
+      d[i] = std::numeric_limits<double>::quiet_NaN();
+      continue;
+    }
+    tree.knn(p, 1, idx, d2);
+    const Eigen::Vector3d off = p - reference.row(idx[0]).transpose();
+    const Eigen::Vector3d n = planes ? reference_normals.row(idx[0]).transpose().normalized()
+                                     : Eigen::Vector3d::Zero();
+    d[i] = planes && n.allFinite() ? std::abs(off.dot(n)) : off.norm();
+  }
+  return d;
 }
 
 }  // namespace nhnet

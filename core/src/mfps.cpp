@@ -253,7 +253,7 @@ MfpsResult mfps_normals(const Points& points, const IndexMatrix& knn, const Eige
         const int32_t c = cand_id[size_t(i)];
         if (c < 0) continue;
         const double r = (points.row(i).transpose() - plane_c[slot]).dot(nrm);
-        const double si = sigma[i];
+        const double si = sigma[i] * options.point_sigma_factor;
         visit(c, int64_t(slot), nrm, e * std::exp(-r * r / (si * si)));
       }
     }
@@ -270,65 +270,70 @@ MfpsResult mfps_normals(const Points& points, const IndexMatrix& knn, const Eige
       }
     });
   }
-  std::vector<double> best_all(size_t(nc), -1.0);
-  std::vector<int64_t> slot_all(size_t(nc), -1);
-  for (int32_t c = 0; c < nc; ++c) {
-    for (int t = 0; t < nt; ++t) {
-      const double sc = best_score[size_t(t)][size_t(c)];
-      const int64_t sl = best_slot[size_t(t)][size_t(c)];
-      if (sl >= 0 && (sc > best_all[size_t(c)] || (sc == best_all[size_t(c)] && sl < slot_all[size_t(c)]))) {
-        best_all[size_t(c)] = sc;
-        slot_all[size_t(c)] = sl;
+  // Merges the per-thread maxima; ties go to the lower slot.
+  auto reduce = [&](std::vector<double>& score_out, std::vector<int64_t>& slot_out) {
+    for (int32_t c = 0; c < nc; ++c) {
+      for (int t = 0; t < nt; ++t) {
+        const double sc = best_score[size_t(t)][size_t(c)];
+        const int64_t sl = best_slot[size_t(t)][size_t(c)];
+        if (sl >= 0 && (sc > score_out[size_t(c)] ||
+                        (sc == score_out[size_t(c)] && sl < slot_out[size_t(c)]))) {
+          score_out[size_t(c)] = sc;
+          slot_out[size_t(c)] = sl;
+        }
       }
     }
-  }
-  // Soft selection: second pass accumulating weighted normal tensors (upper triangle, 6 values)
-  // in 2^-40 fixed point, so the sums are exact and do not depend on the thread count.
-  const double fixed_scale = 1099511627776.0;  // 2^40
-  std::vector<std::vector<int64_t>> tensor;
-  if (options.soft_gamma > 0) {
-    tensor.assign(size_t(nt), std::vector<int64_t>(size_t(nc) * 6, 0));
+  };
+  std::vector<double> best_all(size_t(nc), -1.0);
+  std::vector<int64_t> slot_all(size_t(nc), -1);
+  reduce(best_all, slot_all);
+  // Two-face posterior (see mfps.hpp): the best patch among those whose plane differs from the
+  // winner's by more than `rival_angle_deg`, found with the same deterministic reduction.
+  const bool blend = options.posterior_beta > 0;
+  const double cos_rival = std::cos(options.rival_angle_deg * M_PI / 180.0);
+  std::vector<double> rival_all(size_t(nc), -1.0);
+  std::vector<int64_t> rival_slot(size_t(nc), -1);
+  if (blend) {
+    for (int t = 0; t < nt; ++t) {
+      std::fill(best_score[size_t(t)].begin(), best_score[size_t(t)].end(), -1.0);
+      std::fill(best_slot[size_t(t)].begin(), best_slot[size_t(t)].end(), int64_t(-1));
+    }
 #pragma omp parallel for schedule(static) num_threads(nt)
     for (int64_t j = 0; j < int64_t(n); ++j) {
-      auto& tt = tensor[size_t(omp_get_thread_num())];
-      for_each_score(j, [&](int32_t c, int64_t, const Eigen::Vector3d& nrm, double score) {
-        if (!(best_all[size_t(c)] > 0)) return;
-        const double w = std::pow(std::min(score / best_all[size_t(c)], 1.0), options.soft_gamma);
-        if (w < 1e-12) return;
-        int64_t* a = &tt[size_t(c) * 6];
-        const double ws = w * fixed_scale;
-        a[0] += std::llround(ws * nrm[0] * nrm[0]);
-        a[1] += std::llround(ws * nrm[0] * nrm[1]);
-        a[2] += std::llround(ws * nrm[0] * nrm[2]);
-        a[3] += std::llround(ws * nrm[1] * nrm[1]);
-        a[4] += std::llround(ws * nrm[1] * nrm[2]);
-        a[5] += std::llround(ws * nrm[2] * nrm[2]);
+      auto& bs = best_score[size_t(omp_get_thread_num())];
+      auto& bp = best_slot[size_t(omp_get_thread_num())];
+      for_each_score(j, [&](int32_t c, int64_t slot, const Eigen::Vector3d& nrm, double score) {
+        const int64_t win = slot_all[size_t(c)];
+        if (win < 0 || std::abs(double(plane_n[size_t(win)].cast<double>().dot(nrm))) > cos_rival)
+          return;
+        if (score > bs[size_t(c)] || (score == bs[size_t(c)] && slot < bp[size_t(c)])) {
+          bs[size_t(c)] = score;
+          bp[size_t(c)] = slot;
+        }
       });
     }
+    reduce(rival_all, rival_slot);
   }
   for (Eigen::Index i = 0; i < n; ++i) {
     const int32_t c = cand_id[size_t(i)];
     if (c < 0) continue;
     const int64_t slot = slot_all[size_t(c)];
     if (slot < 0) continue;  // no patch (only when every patch containing it was degenerate)
-    Eigen::Vector3d nrm = plane_n[size_t(slot)].cast<double>();
-    if (options.soft_gamma > 0) {
-      int64_t a[6] = {0, 0, 0, 0, 0, 0};
-      for (int t = 0; t < nt; ++t)
-        for (int u = 0; u < 6; ++u) a[u] += tensor[size_t(t)][size_t(c) * 6 + size_t(u)];
-      Eigen::Matrix3d T;
-      T(0, 0) = double(a[0]);
-      T(0, 1) = double(a[1]);
-      T(0, 2) = double(a[2]);
-      T(1, 1) = double(a[3]);
-      T(1, 2) = double(a[4]);
-      T(2, 2) = double(a[5]);
-      T(1, 0) = T(0, 1);
-      T(2, 0) = T(0, 2);
-      T(2, 1) = T(1, 2);
-      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(T);
-      const Eigen::Vector3d v = es.eigenvectors().col(2);
-      if (v.allFinite() && v.norm() > 0.5) nrm = v.normalized();
+    Eigen::Vector3d nrm = plane_n[size_t(slot)].cast<double>().normalized();
+    const int64_t rs = blend ? rival_slot[size_t(c)] : -1;
+    if (rs >= 0 && best_all[size_t(c)] > 0 && rival_all[size_t(c)] > 0) {
+      // P(rival) from the score ratio; rotating the winner towards the rival by P(rival) times
+      // the angle between them minimises the expected squared angle error.
+      Eigen::Vector3d n2 = plane_n[size_t(rs)].cast<double>().normalized();
+      if (n2.dot(nrm) < 0) n2 = -n2;
+      const double p2 =
+          1.0 / (1.0 + std::pow(best_all[size_t(c)] / rival_all[size_t(c)], options.posterior_beta));
+      const double theta = std::acos(std::clamp(nrm.dot(n2), -1.0, 1.0));
+      if (theta > 1e-9) {
+        const Eigen::Vector3d v =
+            (std::sin((1 - p2) * theta) * nrm + std::sin(p2 * theta) * n2) / std::sin(theta);
+        if (v.allFinite() && v.norm() > 0.5) nrm = v.normalized();
+      }
     }
     res.normals.row(i) = nrm.transpose();
     res.chosen_scale[size_t(i)] = scales[size_t(slot % ns)];

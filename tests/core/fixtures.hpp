@@ -76,4 +76,13 @@ inline Fixture cube(int n, double noise, unsigned seed) {
   return f;
 }
 
+/// `normals` with each row flipped with probability 1/2 (unoriented normals).
+inline nhnet::Normals random_signs(nhnet::Normals normals, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::bernoulli_distribution flip(0.5);
+  for (Eigen::Index i = 0; i < normals.rows(); ++i)
+    if (flip(rng)) normals.row(i) *= -1.0;
+  return normals;
+}
+
 }  // namespace fixtures

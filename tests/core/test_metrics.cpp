@@ -1,4 +1,5 @@
 // Angle metrics on hand-computed cases.
+#include "nhnet/errors.hpp"
 #include "nhnet/metrics.hpp"
 
 #include <gtest/gtest.h>
@@ -36,4 +37,19 @@ TEST(Metrics, InvalidRowsAreCountedNotAveraged) {
 
 TEST(Metrics, SizeMismatchThrows) {
   EXPECT_THROW(angle_errors_deg(Normals(2, 3), Normals(3, 3)), std::invalid_argument);
+}
+
+TEST(Metrics, SurfaceDistancesPointToPlaneAndPointToPoint) {
+  nhnet::Points ref(2, 3), pts(3, 3);
+  ref << 0, 0, 0, 1, 0, 0;
+  nhnet::Normals rn(2, 3);
+  rn << 0, 0, 2, 0, 0, 1;  // any length: normalised
+  pts << 0.1, 0.05, 0.3, 0.9, 0, -0.2, NAN, 0, 0;
+  const Eigen::VectorXd d = nhnet::surface_distances(pts, ref, rn);
+  EXPECT_NEAR(d[0], 0.3, 1e-12);
+  EXPECT_NEAR(d[1], 0.2, 1e-12);
+  EXPECT_TRUE(std::isnan(d[2]));
+  const Eigen::VectorXd e = nhnet::surface_distances(pts.topRows(1), ref);
+  EXPECT_NEAR(e[0], std::sqrt(0.01 + 0.0025 + 0.09), 1e-12);
+  EXPECT_THROW(nhnet::surface_distances(pts, ref, rn.topRows(1)), nhnet::InvalidOptions);
 }

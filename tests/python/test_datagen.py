@@ -230,7 +230,8 @@ def test_generation_is_deterministic_and_complete(tmp_path):
 def test_sample_set(tmp_path):
     datagen.main(["--out", str(tmp_path), "--set", "sample", "--points", "2000"])
     names = sorted(p.name for p in tmp_path.iterdir())
-    assert names == ["fandisk_noise0.6.gt.xyzn", "fandisk_noise0.6.xyz", "index.json"]
+    assert names == ["fandisk_noise0.6.clean.xyz", "fandisk_noise0.6.gt.xyzn", "fandisk_noise0.6.xyz",
+                     "index.json"]
     assert np.loadtxt(tmp_path / "fandisk_noise0.6.gt.xyzn").shape == (2000, 6)
 
 
@@ -249,3 +250,17 @@ def test_train_subset_layout(tmp_path, capsys):
             assert (tmp_path / "train" / f).is_file()
     levels = {c["noise_percent"] for c in index["clouds"] if c["variant"] == "uniform"}
     assert levels == set(datagen.TRAIN_LEVELS)
+
+
+@needs_cgal
+def test_models_filter(tmp_path):
+    # --models keeps only the named benchmark models (the benchmark's quick mode relies on it)
+    assert datagen.main(["--out", str(tmp_path), "--points", "500", "--jobs", "1",
+                         "--models", "fandisk,bunny00",
+                         "--categories", "SharpFeature,SmoothSurface,BigNoise"]) == 0
+    index = json.loads((tmp_path / "benchmark" / "index.json").read_text())
+    got = {(c["category"], c["model"]) for c in index["clouds"]}
+    assert got == {("SharpFeature", "fandisk"), ("SmoothSurface", "bunny00")}
+    assert len(index["clouds"]) == 3 + 3
+    with pytest.raises(SystemExit):
+        datagen.main(["--out", str(tmp_path), "--models", "not-a-model"])

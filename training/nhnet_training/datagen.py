@@ -13,7 +13,7 @@ So all noise levels of one model share the same clean points.
 Command line::
 
     nhnet-datagen --out DIR [--set benchmark|train|sample|all] [--points N] [--subset]
-                  [--seed S] [--categories A,B] [--jobs J]
+                  [--seed S] [--categories A,B] [--models M1,M2] [--jobs J]
 
 Output, per cloud, in ``DIR/benchmark/<category>/`` or ``DIR/train/``::
 
@@ -282,19 +282,22 @@ def cloud_name(model: str, level: float, variant: str) -> str:
     return f"{model}{v}_noise{_fmt_level(level)}"
 
 
-def plan_benchmark(points: int, subset: bool, categories: set[str] | None = None) -> list[Job]:
+def plan_benchmark(points: int, subset: bool, categories: set[str] | None = None,
+                   models: set[str] | None = None) -> list[Job]:
     jobs: dict[tuple[str, str], Job] = {}
 
     def add(model, variant, category, level):
         if categories and category not in categories:
+            return
+        if models and model not in models:
             return
         j = jobs.setdefault((model, variant), Job(model, variant, points))
         j.outputs.append((category, level))
 
     pick = (lambda ms: ms[:SUBSET_MODELS_PER_CATEGORY]) if subset else (lambda ms: ms)
     all_models = []
-    for cat, (models, levels) in BENCHMARK_CATEGORIES.items():
-        for m in pick(models):
+    for cat, (cat_models, levels) in BENCHMARK_CATEGORIES.items():
+        for m in pick(cat_models):
             all_models.append(m)
             for lv in levels:
                 add(m, "uniform", cat, lv)
@@ -358,7 +361,7 @@ def _run_job_star(args):
 def generate(out: str | os.PathLike, which: str, points: int | None = None,
              subset: bool = False, base_seed: int = BASE_SEED,
              categories: set[str] | None = None, jobs: int | None = None,
-             log=print) -> dict:
+             log=print, models: set[str] | None = None) -> dict:
     """Generate one set ('benchmark', 'train' or 'sample'); returns the index written."""
     out = Path(out)
     files: tuple[str, ...] = ("xyz", "normals", "clean.xyz", "gt.xyzn")
@@ -368,10 +371,10 @@ def generate(out: str | os.PathLike, which: str, points: int | None = None,
         plan = [Job(SAMPLE_MODEL, "uniform", n, [("sample", SAMPLE_LEVEL)])]
         set_dir = out
         flat = True
-        files = ("xyz", "gt.xyzn")
+        files = ("xyz", "gt.xyzn", "clean.xyz")  # clean points: denoising accuracy
     else:
         n = points or (SUBSET_POINTS if subset else DEFAULT_POINTS[which])
-        plan = plan_benchmark(n, subset, categories) if which == "benchmark" \
+        plan = plan_benchmark(n, subset, categories, models) if which == "benchmark" \
             else plan_train(n, subset)
         set_dir = out / which
         flat = which == "train"  # one category: DIR/train/<name>.*
@@ -434,6 +437,9 @@ def main(argv: list[str] | None = None) -> int:
                     help="benchmark only: comma-separated categories to make "
                          "(SharpFeature,RichFeature,SmoothSurface,BigNoise,PCPNetNoise,"
                          "PCPNetDensity)")
+    ap.add_argument("--models", default=None,
+                    help="benchmark only: comma-separated models to make (e.g. fandisk,bunny00); "
+                         "default all of each category")
     ap.add_argument("--jobs", type=int, default=None, help="worker processes (default: CPUs)")
     ap.add_argument("--list", action="store_true", help="print the model splits and exit")
     a = ap.parse_args(argv)
@@ -456,11 +462,16 @@ def main(argv: list[str] | None = None) -> int:
         known = set(BENCHMARK_CATEGORIES) | {"PCPNetNoise", "PCPNetDensity"}
         if cats - known:
             ap.error(f"unknown categories: {sorted(cats - known)}")
+    models = None
+    if a.models:
+        models = {m.strip() for m in a.models.split(",") if m.strip()}
+        if models - set(BENCHMARK_MODELS):
+            ap.error(f"not benchmark models: {sorted(models - set(BENCHMARK_MODELS))}")
     sets = ["benchmark", "train"] if a.which == "all" else [a.which]
     t0 = time.time()
     for s in sets:
         generate(a.out, s, a.points, a.subset, a.seed, cats if s == "benchmark" else None,
-                 a.jobs)
+                 a.jobs, models=models if s == "benchmark" else None)
     if len(sets) > 1:
         print(f"nhnet-datagen: total {time.time() - t0:.1f} s")
     return 0

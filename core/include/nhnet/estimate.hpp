@@ -38,9 +38,11 @@ struct EstimateOptions {
   int mfps_score_subset = 48;
   int mfps_rescore = 3;
   int mfps_refine_iterations = 3;
-  /// MFPS soft selection exponent (0 = the paper's argmax; see mfps.hpp). 0.5 measured best for
-  /// RMS on held-in data with no loss in mean error.
-  double mfps_soft_gamma = 0.5;
+  /// MFPS selection (see mfps.hpp): width factor of the point term of Eq. 4, and the two-face
+  /// posterior exponent (0 = the paper's argmax). Defaults measured on the training split
+  /// (tools/README.md).
+  double mfps_point_sigma_factor = 4;
+  double mfps_posterior_beta = 24;
   /// Threads (0 = all cores) and progress/cancel callback.
   RunContext run;
 };
@@ -52,6 +54,9 @@ struct EstimateResult {
   std::vector<uint8_t> valid;
   /// Number of zeros in `valid`.
   int64_t failed = 0;
+  /// N surface variations lambda_min / (lambda_1 + lambda_2 + lambda_3) of each point's PCA
+  /// neighbourhood (k_used points), in [0, 1/3]: what PCL calls "curvature". NaN where failed.
+  Eigen::VectorXd curvature;
   /// Points classified as candidates near sharp features (MFPS only).
   int64_t candidates = 0;
   /// Estimated noise level: residual bandwidth / average point spacing (dimensionless).

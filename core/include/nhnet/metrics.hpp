@@ -1,5 +1,6 @@
-// Accuracy metrics for normals (benchmark protocol): unoriented angle error
-// e = acos(min(1, |n_est . n_gt|)) in degrees, and its mean, RMS, PGP5, PGP10.
+// Accuracy metrics (benchmark protocol). Normals: unoriented angle error
+// e = acos(min(1, |n_est . n_gt|)) in degrees, and its mean, RMS, PGP5, PGP10. Points (denoising):
+// distance of each point to a densely sampled clean surface.
 #pragma once
 
 #include "nhnet/types.hpp"
@@ -25,5 +26,12 @@ struct AngleStats {
 /// left out. Throws InvalidOptions when sizes differ (angle_stats(est, gt) overload).
 AngleStats angle_stats(const Eigen::VectorXd& errors_deg);
 AngleStats angle_stats(const Normals& estimated, const Normals& ground_truth);
+
+/// Distance of every row of `points` (N x 3) to the surface sampled by `reference` (M x 3, finite
+/// rows): point-to-plane |(p - c) . n_c| to the nearest reference point c when
+/// `reference_normals` (M x 3) is given, point-to-point |p - c| when it is empty (0 rows). NaN
+/// for a non-finite point. The denoising metric of the benchmark (divide by the bbox diagonal).
+Eigen::VectorXd surface_distances(const Points& points, const Points& reference,
+                                  const Normals& reference_normals = Normals());
 
 }  // namespace nhnet

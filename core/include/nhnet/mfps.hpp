@@ -10,8 +10,8 @@
 // refine the winner by a few iteratively reweighted least-squares steps, which climb E itself
 // (each step is the weighted-PCA fixed point of the Gaussian objective). Same E, fewer samples,
 // a maximiser that is not limited to 4-point planes: see the note on issue 2 for the numbers.
-// Selection is the paper's argmax by default; an optional soft selection (soft_gamma) trades a
-// little mean error for a lower RMS where two faces are equally likely.
+// Selection is the paper's argmax by default; an optional two-face posterior (posterior_beta)
+// trades a little mean error for a lower RMS where two faces are about equally likely.
 #pragma once
 
 #include "nhnet/progress.hpp"
@@ -36,11 +36,19 @@ struct MfpsOptions {
   int rescore = 1;
   /// IRLS refinement steps of the winning plane (0 = authors' behaviour).
   int refine_iterations = 0;
-  /// Patch selection (Eq. 3-4). 0 = the paper's argmax over S_i. gamma > 0 = soft selection:
-  /// the normal is the principal direction of sum_Q (D_Q / D_max)^gamma n_Q n_Q^T over S_i, which
-  /// equals the argmax when one patch dominates and splits the difference when two faces score
-  /// alike (there the argmax is a coin flip between 0 and 90 degrees, the worst case for RMS).
-  double soft_gamma = 0;
+  /// Width of the point term exp(-r_i^2 / (f sigma_i)^2) of Eq. 4, as a multiple f of sigma_i
+  /// (paper: 1). A wider term stops a point that noise pushed off its own face from preferring
+  /// a plane bent across the edge.
+  double point_sigma_factor = 1;
+  /// Two-face posterior (0 = the paper's argmax). With beta > 0, the winner's score D1 and the
+  /// best score D2 among patches whose plane differs from the winner's by more than
+  /// `rival_angle_deg` give P(rival) = 1 / (1 + (D1/D2)^beta); the normal is the winner's rotated
+  /// towards the rival's by P(rival) times the angle between them, which minimises the expected
+  /// squared angle error where the two faces are about equally likely (there the argmax is a
+  /// coin flip between 0 and the dihedral angle, the worst case for RMS).
+  double posterior_beta = 0;
+  /// Planes closer than this to the winner's (degrees) are the same face, not a rival.
+  double rival_angle_deg = 20;
   /// Seed of the random samples; results do not depend on the thread count.
   uint64_t seed = 1;
 };

@@ -1,0 +1,203 @@
+// Normal orientation (keep / viewpoint / MST via CGAL's mst_orient_normals, Hoppe et al. 1992),
+// see orient.hpp. CGAL packs the oriented points of the range it is given to the front, so it
+// works on a range of indices into per-component copies; our arrays never change order.
+#include "nhnet/orient.hpp"
+
+#include "nhnet/errors.hpp"
+#include "nhnet/estimate.hpp"
+#include "nhnet/neighbors.hpp"
+#include "parallel.hpp"
+
+#include <CGAL/Simple_cartesian.h>
+#include <CGAL/mst_orient_normals.h>
+#include <CGAL/property_map.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <string>
+#include <vector>
+
+namespace nhnet {
+
+OrientMode orient_mode_from_string(const std::string& name) {
+  if (name == "none") return OrientMode::None;
+  if (name == "keep") return OrientMode::Keep;
+  if (name == "viewpoint") return OrientMode::Viewpoint;
+  if (name == "mst") return OrientMode::Mst;
+  throw InvalidOptions("unknown orientation '" + name + "' (expected keep, viewpoint, mst or none)");
+}
+
+const char* to_string(OrientMode mode) {
+  switch (mode) {
+    case OrientMode::None: return "none";
+    case OrientMode::Keep: return "keep";
+    case OrientMode::Viewpoint: return "viewpoint";
+    case OrientMode::Mst: return "mst";
+  }
+  return "?";
+}
+
+namespace {
+
+using Kernel = CGAL::Simple_cartesian<double>;
+
+bool valid_normal(const Eigen::RowVector3d& n) {
+  const double len = n.norm();
+  return std::isfinite(len) && len > 1e-12;
+}
+
+/// Union-find with path halving.
+int32_t find_root(std::vector<int32_t>& parent, int32_t x) {
+  while (parent[size_t(x)] != x) {
+    parent[size_t(x)] = parent[size_t(parent[size_t(x)])];
+    x = parent[size_t(x)];
+  }
+  return x;
+}
+
+/// MST orientation of the rows `used` of points/normals, one CGAL call per k-NN component.
+void orient_mst(const Points& points, Normals& normals, const std::vector<int64_t>& used,
+                const OrientOptions& options, OrientResult& res) {
+  const Eigen::Index m = Eigen::Index(used.size());
+  if (m == 0) return;
+  detail::Progress progress(options.run.progress);
+  Points pts(m, 3);
+  for (Eigen::Index i = 0; i < m; ++i) pts.row(i) = points.row(used[size_t(i)]);
+
+  // Components of the symmetric k-NN graph: the same graph CGAL builds inside each component
+  // (an edge when either point is among the other's k nearest, self included).
+  const int k = int(std::min<Eigen::Index>(options.k, m));
+  if (options.run.progress) progress.stage("orient: neighbours", 0, 0.2);
+  std::vector<int32_t> parent(static_cast<size_t>(m));
+  std::iota(parent.begin(), parent.end(), 0);
+  if (m > 1) {
+    const Neighbors tree(pts);
+    IndexMatrix knn;
+    RunContext sub;
+    sub.threads = options.run.threads;
+    tree.knn_all(k, knn, nullptr, sub);
+    for (Eigen::Index i = 0; i < m; ++i)
+      for (Eigen::Index c = 1; c < knn.cols(); ++c) {
+        const int32_t a = find_root(parent, int32_t(i)), b = find_root(parent, knn(i, c));
+        if (a != b) parent[size_t(std::max(a, b))] = std::min(a, b);
+      }
+  }
+  progress.throw_if_cancelled();
+  std::vector<std::vector<int32_t>> comps;
+  {
+    std::vector<int32_t> comp_of(static_cast<size_t>(m), -1);
+    for (Eigen::Index i = 0; i < m; ++i) {
+      const int32_t r = find_root(parent, int32_t(i));
+      if (comp_of[size_t(r)] < 0) {
+        comp_of[size_t(r)] = int32_t(comps.size());
+        comps.emplace_back();
+      }
+      comps[size_t(comp_of[size_t(r)])].push_back(int32_t(i));
+    }
+  }
+  res.components = int64_t(comps.size());
+
+  // One CGAL call per component, on copies indexed 0..size-1; CGAL reorders only `range`.
+  int64_t done = 0;
+  if (options.run.progress) progress.stage("orient: mst", 0.2, 1.0);
+  for (const auto& comp : comps) {
+    const size_t cs = comp.size();
+    std::vector<Kernel::Point_3> cp;
+    std::vector<Kernel::Vector_3> cn;
+    cp.reserve(cs);
+    cn.reserve(cs);
+    for (int32_t li : comp) {
+      const Eigen::RowVector3d p = pts.row(li);
+      const Eigen::RowVector3d n = normals.row(used[size_t(li)]).normalized();
+      cp.emplace_back(p[0], p[1], p[2]);
+      cn.emplace_back(n[0], n[1], n[2]);
+    }
+    size_t left = 0;
+    if (cs == 1) {
+      // A lone point (only when the cloud has one valid point): the seed rule, +z.
+      if (cn[0].z() < 0) cn[0] = -cn[0];
+    } else {
+      std::vector<std::size_t> range(cs);
+      std::iota(range.begin(), range.end(), std::size_t(0));
+      const auto first_unoriented = CGAL::mst_orient_normals(
+          range, unsigned(std::max(2, std::min<int>(k, int(cs)))),
+          CGAL::parameters::point_map(CGAL::make_property_map(cp))
+              .normal_map(CGAL::make_property_map(cn))
+              .geom_traits(Kernel()));
+      left = size_t(range.end() - first_unoriented);
+    }
+    if (left > 0) {
+      ++res.unoriented_components;
+      res.unoriented += int64_t(left);
+    }
+    for (size_t t = 0; t < cs; ++t) {
+      const int64_t row = used[size_t(comp[t])];
+      const Eigen::RowVector3d n(cn[t].x(), cn[t].y(), cn[t].z());
+      if (n.dot(normals.row(row)) < 0) {
+        normals.row(row) *= -1.0;  // only the sign changes; the length stays the caller's
+        ++res.flipped;
+      }
+    }
+    done += int64_t(cs);
+    if (options.run.progress && !progress.report(double(done) / double(m))) break;
+  }
+  progress.throw_if_cancelled();
+}
+
+}  // namespace
+
+OrientResult orient_normals(const Points& points, Normals& normals, const OrientOptions& options,
+                            const Normals& reference) {
+  if (normals.rows() != points.rows())
+    throw InvalidOptions("orient: " + std::to_string(normals.rows()) + " normals for " +
+                         std::to_string(points.rows()) + " points");
+  if (options.mode == OrientMode::Mst && options.k < 2)
+    throw InvalidOptions("orient: mst needs k >= 2, got " + std::to_string(options.k));
+  if (options.mode == OrientMode::Viewpoint && !options.viewpoint.allFinite())
+    throw InvalidOptions("orient: the viewpoint must have finite coordinates");
+  if (options.mode == OrientMode::Keep && reference.rows() != points.rows())
+    throw InvalidOptions("orient keep: needs one reference normal per point (the input has " +
+                         std::to_string(reference.rows()) + " for " +
+                         std::to_string(points.rows()) + " points)");
+  if (options.run.threads < 0) throw InvalidOptions("orient: threads must be >= 0");
+
+  OrientResult res;
+  std::vector<int64_t> used;
+  used.reserve(size_t(points.rows()));
+  for (Eigen::Index i = 0; i < points.rows(); ++i) {
+    if (points.row(i).allFinite() && valid_normal(normals.row(i)))
+      used.push_back(i);
+    else
+      ++res.invalid;
+  }
+
+  switch (options.mode) {
+    case OrientMode::None:
+      break;
+    case OrientMode::Keep:
+      for (int64_t i : used) {
+        const double d = normals.row(i).dot(reference.row(i));
+        if (!std::isfinite(d) || d == 0) ++res.unoriented;
+      }
+      res.flipped = orient_like(normals, reference);
+      break;
+    case OrientMode::Viewpoint:
+      for (int64_t i : used) {
+        const double d = (options.viewpoint.transpose() - points.row(i)).dot(normals.row(i));
+        if (d < 0) {
+          normals.row(i) *= -1.0;
+          ++res.flipped;
+        } else if (!(d > 0)) {
+          ++res.unoriented;
+        }
+      }
+      break;
+    case OrientMode::Mst:
+      orient_mst(points, normals, used, options, res);
+      break;
+  }
+  return res;
+}
+
+}  // namespace nhnet

@@ -1,0 +1,114 @@
+// Thin adapter between CloudCompare's ccPointCloud and the nhnet core, shared by the GUI actions
+// and the -NHNET_* command-line commands: settings with the core's defaults, copy the points in,
+// call nhnet::estimate_normals / nhnet::denoise_points, copy normals or points out. No algorithm
+// lives here. Nothing in this file touches a widget except run_with_progress (a dialog pointer).
+#pragma once
+
+#include "nhnet/errors.hpp"
+#include "nhnet/estimate.hpp"
+#include "nhnet/orient.hpp"
+#include "nhnet/progress.hpp"
+
+#include <QString>
+#include <QStringList>
+
+#include <array>
+#include <functional>
+
+// NHNET_CC_HAS_DENOISE is set by CMakeLists.txt from whether the core has its denoise stage (a
+// compile definition, so the build notices when the stage arrives).
+#if NHNET_CC_HAS_DENOISE
+#include "nhnet/denoise.hpp"
+#endif
+
+class ccPointCloud;
+class ccProgressDialog;
+
+namespace nhcc {
+
+/// How the signs of estimated normals are chosen.
+enum class Orient {
+  Auto,       ///< "keep" when the cloud already has normals, "mst" otherwise (the core's rule)
+  Keep,       ///< flip each normal to agree with the cloud's existing normal at that point
+  None,       ///< leave the estimator's arbitrary signs
+  Mst,        ///< minimum-spanning-tree propagation per connected part (outward when closed)
+  Viewpoint,  ///< towards a sensor position
+};
+
+/// "auto", "keep", "none", "mst", "viewpoint", in Orient's order.
+QStringList orient_names();
+/// Parses a name of orient_names() (case-insensitive); throws nhnet::InvalidOptions otherwise.
+Orient orient_from_string(const QString& name);
+
+/// Names of the core's estimators, the core's default first. Adding a method to the plugin (the
+/// GUI list and -METHOD) is one line in NhnetAdapter.cpp.
+QStringList method_names();
+/// Whether the named method reads a model file (NormalsSettings::model).
+bool method_uses_model(const QString& name);
+
+/// Settings of "Estimate normals (NH-Net)" / -NHNET_NORMALS. Defaults are the core's.
+struct NormalsSettings {
+  /// Estimator, one of method_names() (default: the core's, mfps).
+  QString method;
+  /// MFPS patch sizes: "auto" (chosen from the cloud's noise level) or a list like "50,100,150".
+  QString scales = "auto";
+  /// Sign handling (default: keep the cloud's signs when it has normals).
+  Orient orient = Orient::Auto;
+  /// Sensor position for Orient::Viewpoint, in the cloud's (local) coordinates.
+  std::array<double, 3> viewpoint{{0, 0, 0}};
+  /// Worker threads, 0 = all cores.
+  int threads = 0;
+  /// TorchScript model file for the learned method; empty = the installed default model.
+  QString model;
+
+  NormalsSettings();
+};
+
+/// Whether this build's core has the normal-guided denoiser (paper Eq. 9).
+bool denoise_available();
+
+/// Settings of "Normal-guided denoise" / -NHNET_DENOISE. Defaults are the core's.
+struct DenoiseSettings {
+  /// Update steps (the core's default; paper: 20).
+  int iterations;
+  /// Ball radius in the cloud's units; 0 = chosen by the core from the average spacing.
+  double radius;
+  /// Which normals guide the update: "input" (the cloud's own normals), a method name of
+  /// method_names() (estimate them first with `estimate`'s other settings), or "auto": the
+  /// cloud's normals when it has some, else the default method.
+  QString normals = "auto";
+  /// Settings of the estimation run when `normals` names a method.
+  NormalsSettings estimate;
+
+  DenoiseSettings();
+};
+
+/// What one run did, for the console.
+struct Outcome {
+  QString summary;      ///< one line: counts and the parameters actually used
+  QStringList warnings; ///< the core's non-fatal notes
+};
+
+/// Estimates normals of `cloud` and stores them in it (only once everything succeeded: a
+/// failure or a cancel leaves the cloud as it was). Failed points get a zero normal.
+Outcome estimate_cloud_normals(ccPointCloud& cloud, const NormalsSettings& settings,
+                               ccProgressDialog* dialog);
+
+/// Moves the points of `cloud` (normal-guided denoise); when the normals were estimated first,
+/// stores them in the cloud too. Leaves the cloud untouched on failure or cancel.
+Outcome denoise_cloud(ccPointCloud& cloud, const DenoiseSettings& settings,
+                      ccProgressDialog* dialog);
+
+/// Runs `work` with a progress callback. With a dialog: on a worker thread, while this thread
+/// (the GUI thread) keeps the dialog painted and responsive; its Cancel button makes the callback
+/// return false, so the core throws nhnet::Cancelled. Without a dialog: directly, no reporting.
+/// Exceptions thrown by `work` are rethrown here.
+void run_with_progress(ccProgressDialog* dialog,
+                       const std::function<void(const nhnet::ProgressCallback&)>& work);
+
+/// Runs `fn` and turns every exception into a message (empty = success): the boundary that keeps
+/// CloudCompare up whatever happens in the core, std::bad_alloc included. `cancelled` is set
+/// when the user cancelled.
+QString guarded(const std::function<void()>& fn, bool* cancelled = nullptr);
+
+}  // namespace nhcc

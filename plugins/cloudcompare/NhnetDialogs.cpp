@@ -1,0 +1,157 @@
+// Parameter dialogs of the plugin (see NhnetDialogs.h). Widgets only: checks happen in the adapter.
+#include "NhnetDialogs.h"
+
+#include <QComboBox>
+#include <QDialogButtonBox>
+#include <QDoubleSpinBox>
+#include <QFileDialog>
+#include <QFormLayout>
+#include <QHBoxLayout>
+#include <QLineEdit>
+#include <QPushButton>
+#include <QSpinBox>
+#include <QVBoxLayout>
+
+#include <limits>
+
+namespace nhcc {
+
+namespace {
+
+QSpinBox* threads_box(int value, QWidget* parent) {
+  auto* box = new QSpinBox(parent);
+  box->setRange(0, 1024);
+  box->setSpecialValueText("all cores");
+  box->setValue(value);
+  return box;
+}
+
+/// OK / Cancel under `form`.
+void finish(QDialog* dialog, QFormLayout* form) {
+  auto* buttons = new QDialogButtonBox(QDialogButtonBox::Ok | QDialogButtonBox::Cancel, dialog);
+  QObject::connect(buttons, &QDialogButtonBox::accepted, dialog, &QDialog::accept);
+  QObject::connect(buttons, &QDialogButtonBox::rejected, dialog, &QDialog::reject);
+  auto* layout = new QVBoxLayout(dialog);
+  layout->addLayout(form);
+  layout->addWidget(buttons);
+}
+
+}  // namespace
+
+EstimateDialog::EstimateDialog(const NormalsSettings& initial, QWidget* parent) : QDialog(parent) {
+  setWindowTitle("Estimate normals (NH-Net)");
+  auto* form = new QFormLayout;
+
+  method_ = new QComboBox(this);
+  method_->addItems(method_names());
+  method_->setCurrentText(initial.method);
+  method_->setToolTip("mfps: PCA on smooth points, multi-scale patch selection near sharp "
+                      "features (default). pca: plain PCA.");
+  form->addRow("Method", method_);
+
+  scales_ = new QLineEdit(initial.scales, this);
+  scales_->setToolTip("MFPS patch sizes in points: 'auto' (from the cloud's noise level) or a "
+                      "list like 50,100,150");
+  form->addRow("Scales", scales_);
+
+  orient_ = new QComboBox(this);
+  const QStringList names = orient_names();
+  orient_->addItems(names);
+  orient_->setCurrentIndex(int(initial.orient));
+  orient_->setToolTip("auto: keep the cloud's signs if it has normals, MST otherwise; mst: "
+                      "consistent signs over each connected part (outward on closed surfaces); "
+                      "viewpoint: towards the sensor position below");
+  form->addRow("Orientation", orient_);
+
+  auto* vp = new QHBoxLayout;
+  for (int i = 0; i < 3; ++i) {
+    viewpoint_[i] = new QDoubleSpinBox(this);
+    viewpoint_[i]->setRange(-std::numeric_limits<double>::max(), std::numeric_limits<double>::max());
+    viewpoint_[i]->setDecimals(4);
+    viewpoint_[i]->setValue(initial.viewpoint[size_t(i)]);
+    vp->addWidget(viewpoint_[i]);
+  }
+  form->addRow("Viewpoint (x y z)", vp);
+
+  threads_ = threads_box(initial.threads, this);
+  form->addRow("Threads", threads_);
+
+  auto* modelRow = new QHBoxLayout;
+  model_ = new QLineEdit(initial.model, this);
+  model_->setPlaceholderText("installed default model");
+  browse_ = new QPushButton("...", this);
+  modelRow->addWidget(model_);
+  modelRow->addWidget(browse_);
+  connect(browse_, &QPushButton::clicked, this, [this] {
+    const QString f = QFileDialog::getOpenFileName(this, "NH-Net model", model_->text(),
+                                                   "TorchScript model (*.pt);;All files (*)");
+    if (!f.isEmpty()) model_->setText(f);
+  });
+  form->addRow("Model file", modelRow);
+
+  connect(method_, &QComboBox::currentTextChanged, this, [this] { updateEnabled(); });
+  connect(orient_, QOverload<int>::of(&QComboBox::currentIndexChanged), this,
+          [this] { updateEnabled(); });
+  updateEnabled();
+  finish(this, form);
+}
+
+void EstimateDialog::updateEnabled() {
+  const bool model = method_uses_model(method_->currentText());
+  model_->setEnabled(model);
+  browse_->setEnabled(model);
+  const bool vp = orient_->currentIndex() == int(Orient::Viewpoint);
+  for (auto* box : viewpoint_) box->setEnabled(vp);
+  scales_->setEnabled(method_->currentText() != "pca");
+}
+
+NormalsSettings EstimateDialog::settings() const {
+  NormalsSettings s;
+  s.method = method_->currentText();
+  s.scales = scales_->text();
+  s.orient = Orient(orient_->currentIndex());
+  for (size_t i = 0; i < 3; ++i) s.viewpoint[i] = viewpoint_[i]->value();
+  s.threads = threads_->value();
+  s.model = model_->text().trimmed();
+  return s;
+}
+
+DenoiseDialog::DenoiseDialog(const DenoiseSettings& initial, QWidget* parent)
+    : QDialog(parent), base_(initial) {
+  setWindowTitle("Normal-guided denoise");
+  auto* form = new QFormLayout;
+
+  iterations_ = new QSpinBox(this);
+  iterations_->setRange(1, 1000);
+  iterations_->setValue(initial.iterations);
+  form->addRow("Iterations", iterations_);
+
+  radius_ = new QDoubleSpinBox(this);
+  radius_->setRange(0, std::numeric_limits<double>::max());
+  radius_->setDecimals(6);
+  radius_->setSpecialValueText("auto (from the point spacing)");
+  radius_->setValue(initial.radius);
+  form->addRow("Radius", radius_);
+
+  normals_ = new QComboBox(this);
+  normals_->addItem("the cloud's normals", "input");
+  for (const QString& m : method_names()) normals_->addItem("estimate with " + m, m);
+  const int at = normals_->findData(initial.normals);
+  normals_->setCurrentIndex(at < 0 ? 0 : at);
+  form->addRow("Normals", normals_);
+
+  threads_ = threads_box(initial.estimate.threads, this);
+  form->addRow("Threads", threads_);
+  finish(this, form);
+}
+
+DenoiseSettings DenoiseDialog::settings() const {
+  DenoiseSettings s = base_;
+  s.iterations = iterations_->value();
+  s.radius = radius_->value();
+  s.normals = normals_->currentData().toString();
+  s.estimate.threads = threads_->value();
+  return s;
+}
+
+}  // namespace nhcc

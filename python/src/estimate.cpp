@@ -1,0 +1,176 @@
+// Bindings of the estimation pipeline (estimate.hpp): nhnet.estimate() returning the full
+// result and nhnet.estimate_normals() returning only the (N, 3) normals.
+#include "bindings.hpp"
+
+#include "nhnet/errors.hpp"
+#include "nhnet/estimate.hpp"
+
+#include <pybind11/stl.h>
+
+#include <optional>
+#include <tuple>
+
+namespace nhnet::python {
+
+namespace {
+
+/// EstimateResult with its arrays converted once to numpy (the core's copies are dropped).
+struct PyEstimateResult {
+  EstimateResult core;
+  py::array_t<double> normals;
+  py::array_t<bool> valid;
+  py::array_t<double> curvature;
+  OrientResult orient;  ///< what orient= did (zeros without it)
+};
+
+PyEstimateResult estimate(const py::handle& points, const std::string& method, int k,
+                          std::optional<std::vector<int>> scales, int threads, uint64_t seed,
+                          const py::object& orient, const py::object& viewpoint,
+                          const py::object& progress) {
+  EstimateOptions opt;
+  opt.method = method_from_string(method);
+  opt.k = k;
+  if (scales) opt.scales = *scales;
+  opt.run.threads = threads;
+  opt.seed = seed;
+  const Points pts = to_points(points, "points");
+  OrientRequest req =
+      orient_request(orient, py::none(), viewpoint, OrientOptions().k, pts.rows());
+  req.options.run.threads = threads;
+
+  PyEstimateResult out;
+  out.core = run_released(progress, [&](ProgressCallback cb) {
+    opt.run.progress = std::move(cb);
+    EstimateResult res = estimate_normals(pts, opt);
+    if (req.options.mode != OrientMode::None) {
+      req.options.run.progress = opt.run.progress;
+      out.orient = orient_normals(pts, res.normals, req.options, req.reference);
+    }
+    return res;
+  });
+  EstimateResult& r = out.core;
+  out.normals = to_numpy(r.normals);
+  out.valid = to_numpy_mask(r.valid);
+  out.curvature = to_numpy(r.curvature);
+  r.normals.resize(0, 3);
+  r.valid.clear();
+  r.curvature.resize(0);
+  return out;
+}
+
+const char* kArgsDoc = R"(
+Parameters
+----------
+points : array_like, shape (N, 3)
+    Point coordinates (converted to float64). Rows with a NaN or infinite coordinate are
+    skipped: they get a NaN normal, are counted as failed and never influence their neighbours.
+method : {'mfps', 'pca'}
+    'mfps' (default): PCA for smooth points and multi-scale fitting patch selection near sharp
+    features (paper Sec. 4). 'pca': plain PCA over the k nearest neighbours.
+k : int
+    PCA neighbourhood size (self included), 0 (default) = chosen from the noise level, else >= 3.
+scales : sequence of int, optional
+    MFPS patch sizes, e.g. [50, 100, 150] (the paper's); None (default) = chosen from the
+    cloud's noise level.
+threads : int
+    Worker threads, 0 (default) = all cores.
+seed : int
+    Seed of MFPS's random plane samples; results are deterministic for a seed whatever the
+    thread count (default 1, the same as nhnet-cli).
+orient : None, 'mst', 'viewpoint' or array_like (N, 3)
+    None (default): unoriented normals (sign arbitrary). 'mst': consistent signs propagated
+    over the k-NN graph (see nhnet.orient). 'viewpoint': every normal turned towards
+    `viewpoint`. An (N, 3) array: reference normals each result normal is flipped to agree
+    with (what ``nhnet-cli estimate --orient keep`` does with the input's normals).
+viewpoint : sequence of 3 numbers, optional
+    Sensor position for orient='viewpoint' (default the origin).
+progress : callable, optional
+    ``progress(fraction: float, stage: str)`` called about every 50 ms; return False (or raise)
+    to cancel: False raises nhnet.Cancelled, an exception is re-raised as it is.
+
+The GIL is released while the core runs; Ctrl-C interrupts it (KeyboardInterrupt).
+
+Raises
+------
+nhnet.InvalidOptions (ValueError)
+    Bad parameter or array shape.
+nhnet.UnprocessableInput (ValueError)
+    Fewer than 3 finite points.
+)";
+
+}  // namespace
+
+void register_estimate(py::module_& m) {
+  py::class_<PyEstimateResult>(m, "EstimateResult",
+                               "Everything nhnet.estimate() computed for one cloud.")
+      .def_readonly("normals", &PyEstimateResult::normals,
+                    "(N, 3) float64 unit normals; NaN rows for failed points.")
+      .def_readonly("valid", &PyEstimateResult::valid,
+                    "(N,) bool: True where a normal was computed.")
+      .def_readonly("curvature", &PyEstimateResult::curvature,
+                    "(N,) float64 surface variation lambda_min / sum(lambda) of each point's "
+                    "PCA neighbourhood (PCL's 'curvature'); NaN where failed.")
+      .def_property_readonly("failed", core_field<PyEstimateResult>(&EstimateResult::failed),
+                             "Number of False entries in `valid`.")
+      .def_property_readonly("candidates", core_field<PyEstimateResult>(&EstimateResult::candidates),
+                             "Points classified as candidates near sharp features (MFPS only).")
+      .def_property_readonly("noise_ratio", core_field<PyEstimateResult>(&EstimateResult::noise_ratio),
+                             "Estimated noise level: residual bandwidth / average spacing.")
+      .def_property_readonly("spacing", core_field<PyEstimateResult>(&EstimateResult::spacing),
+                             "Average distance to the nearest other point, input units.")
+      .def_property_readonly("k_used", core_field<PyEstimateResult>(&EstimateResult::k_used),
+                             "PCA neighbourhood size used.")
+      .def_property_readonly("scales_used", core_field<PyEstimateResult>(&EstimateResult::scales_used),
+                             "MFPS patch sizes used (empty for PCA).")
+      .def_property_readonly("warnings", core_field<PyEstimateResult>(&EstimateResult::warnings),
+                             "Non-fatal notes (non-finite points skipped, clamped sizes, ...).")
+      .def_property_readonly(
+          "flipped", [](const PyEstimateResult& r) { return r.orient.flipped; },
+          "Normals flipped by `orient` (0 without it).")
+      .def_property_readonly(
+          "unoriented", [](const PyEstimateResult& r) { return r.orient.unoriented; },
+          "Valid normals whose sign `orient` could not decide (0 without it).")
+      .def("__repr__", [](const PyEstimateResult& r) {
+        return "<nhnet.EstimateResult points=" + std::to_string(r.normals.shape(0)) +
+               " failed=" + std::to_string(r.core.failed) +
+               " k_used=" + std::to_string(r.core.k_used) +
+               " noise_ratio=" + std::to_string(r.core.noise_ratio) + ">";
+      });
+
+  const std::string estimate_doc =
+      std::string("Estimates unit normals and returns the full result (normals, valid mask, "
+                  "failed count, noise ratio, sizes used, warnings).\n") +
+      kArgsDoc;
+  // One argument list for estimate() and estimate_normals().
+  const auto args = std::make_tuple(
+      py::arg("points"), py::kw_only(), py::arg("method") = "mfps", py::arg("k") = 0,
+      py::arg("scales") = py::none(), py::arg("threads") = 0, py::arg("seed") = uint64_t(1),
+      py::arg("orient") = py::none(), py::arg("viewpoint") = py::none(),
+      py::arg("progress") = py::none());
+  std::apply([&](const auto&... a) { m.def("estimate", &estimate, estimate_doc.c_str(), a...); },
+             args);
+
+  const std::string normals_doc =
+      std::string("Estimates unit normals: returns an (N, 3) float64 array, NaN rows for points "
+                  "that failed. The core's warnings are issued as Python RuntimeWarnings; use "
+                  "nhnet.estimate() for the valid mask, the noise ratio and the sizes used.\n") +
+      kArgsDoc;
+  const auto estimate_normals = [](const py::handle& points, const std::string& method, int k,
+                                   std::optional<std::vector<int>> scales, int threads,
+                                   uint64_t seed, const py::object& orient,
+                                   const py::object& viewpoint, const py::object& progress) {
+    PyEstimateResult r = estimate(points, method, k, std::move(scales), threads, seed, orient,
+                                  viewpoint, progress);
+    for (const std::string& w : r.core.warnings)
+      if (PyErr_WarnEx(PyExc_RuntimeWarning, ("nhnet: " + w).c_str(), 1) != 0)
+        throw py::error_already_set();
+    return r.normals;
+  };
+  std::apply(
+      [&](const auto&... a) {
+        m.def("estimate_normals", estimate_normals, normals_doc.c_str(), a...);
+      },
+      args);
+}
+
+}  // namespace nhnet::python

@@ -1,0 +1,54 @@
+// Bindings of the accuracy metrics (metrics.hpp): nhnet.metrics() and nhnet.angle_errors().
+#include "bindings.hpp"
+
+#include "nhnet/errors.hpp"
+#include "nhnet/metrics.hpp"
+
+namespace nhnet::python {
+
+namespace {
+
+void check_sizes(const Normals& est, const Normals& gt) {
+  if (est.rows() != gt.rows())
+    throw InvalidOptions("est and gt differ in size: " + std::to_string(est.rows()) + " vs " +
+                         std::to_string(gt.rows()) + " normals");
+}
+
+}  // namespace
+
+void register_metrics(py::module_& m) {
+  m.def(
+      "angle_errors",
+      [](const py::handle& est, const py::handle& gt) {
+        const Normals e = to_points(est, "est"), g = to_points(gt, "gt");
+        check_sizes(e, g);
+        const Eigen::VectorXd err = angle_errors_deg(e, g);
+        return py::array_t<double>(py::ssize_t(err.size()), err.data());
+      },
+      "Per-point unoriented angle error in degrees, acos(min(1, |est . gt|)), between two "
+      "(N, 3) normal arrays (rows need not be unit length); NaN where either normal is "
+      "non-finite or zero.",
+      py::arg("est"), py::arg("gt"));
+  m.def(
+      "metrics",
+      [](const py::handle& est, const py::handle& gt) {
+        const Normals e = to_points(est, "est"), g = to_points(gt, "gt");
+        check_sizes(e, g);
+        const AngleStats s = angle_stats(e, g);
+        py::dict d;
+        d["mean"] = s.mean;
+        d["rms"] = s.rms;
+        d["pgp5"] = s.pgp5;
+        d["pgp10"] = s.pgp10;
+        d["count"] = s.count;
+        d["invalid"] = s.invalid;
+        return d;
+      },
+      "Accuracy of estimated normals against ground truth (both (N, 3), same points in the same "
+      "order), as `nhnet-cli eval` reports it: {'mean', 'rms'} unoriented angle error in "
+      "degrees, {'pgp5', 'pgp10'} share of points under 5 / 10 degrees in [0, 1], 'count' "
+      "points compared, 'invalid' points left out because a normal is NaN or zero.",
+      py::arg("est"), py::arg("gt"));
+}
+
+}  // namespace nhnet::python

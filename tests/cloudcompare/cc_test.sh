@@ -1,0 +1,237 @@
+#!/usr/bin/env bash
+# Headless end-to-end tests of the CloudCompare plugin with the real, stock CloudCompare 2.11.3:
+# `CloudCompare -SILENT` with QT_QPA_PLATFORM=offscreen (no X server), the plugin in a private
+# XDG_DATA_HOME plugin dir, and a private XDG_CONFIG_HOME, so nothing outside a temp dir is used.
+# Usage: cc_test.sh CASE   (environment from tests/cloudcompare/CMakeLists.txt: NHNET_CC_PLUGIN,
+# NHNET_CLI, NHNET_CLOUDCOMPARE, NHNET_SOURCE_DIR, NHNET_BUILD_DIR, NHNET_CC_HAS_DENOISE)
+set -euo pipefail
+
+CASE=$1
+SRC=${NHNET_SOURCE_DIR:-$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)}
+CC=${NHNET_CLOUDCOMPARE:-CloudCompare}
+CLI=$NHNET_CLI
+PY=/usr/bin/python3
+COMPARE="$SRC/tests/cloudcompare/compare_normals.py"
+SAMPLE="$SRC/data/sample/fandisk_noise0.6.xyz"
+GT="$SRC/data/sample/fandisk_noise0.6.gt.xyzn"
+WORK=$(mktemp -d "${TMPDIR:-/tmp}/nhnet-cc-test.XXXXXX")
+trap 'rm -rf "$WORK"' EXIT
+cd "$WORK"
+
+fail() {
+  echo "FAIL [$CASE]: $*" >&2
+  if [[ -f log.txt ]]; then echo "--- CloudCompare output of the last run:" >&2; cat log.txt >&2; fi
+  exit 1
+}
+
+# Private plugin dir (CloudCompare searches $XDG_DATA_HOME/CCCorp/CloudCompare/plugins).
+mkdir -p data/CCCorp/CloudCompare/plugins config
+cp "$NHNET_CC_PLUGIN" data/CCCorp/CloudCompare/plugins/
+
+# cc ARGS...: CloudCompare -SILENT, output -> log.txt, status -> $RC.
+cc() {
+  set +e
+  XDG_DATA_HOME="$WORK/data" XDG_CONFIG_HOME="$WORK/config" XDG_RUNTIME_DIR="$WORK" \
+    QT_QPA_PLATFORM=offscreen "$CC" -SILENT -NO_TIMESTAMP -AUTO_SAVE OFF -C_EXPORT_FMT PLY "$@" \
+    >log.txt 2>&1
+  RC=$?
+  set -e
+  echo "\$ CloudCompare -SILENT ... $* -> $RC"
+}
+
+expect_rc() { [[ $RC == "$1" ]] || fail "CloudCompare exited $RC, expected $1"; }
+log_has() { grep -qF -- "$1" log.txt || fail "CloudCompare output lacks '$1'"; }
+loaded() { log_has "Plugin found: NH-Net normals (libQNHNET_PLUGIN.so)"; }
+
+# ---- cases -------------------------------------------------------------------------------------
+
+# The Bar: CloudCompare's normals equal the CLI's on the same points, up to CloudCompare's normal
+# quantisation. ccPointCloud stores a normal as an index into 8 * 4^9 (~2.1 million) directions
+# (ccNormalCompressor, level 9: each octant's triangle split 9 times, a normal decoded as its cell's
+# centre): cells have sides of sqrt(2)/512 = 2.8e-3, the centre is at most 1.6e-3 from any point of
+# the cell, which seen from the origin (>= 1/sqrt(3) away) is at most 2.8e-3 rad = 0.16 degrees.
+# Measured on the sample: max 0.157, mean 0.054 degrees. 0.25 degrees allows that and nothing else:
+# the same algorithm on the same float coordinates is deterministic (MFPS seeds do not depend on
+# the thread count).
+# The CLI runs on CloudCompare's own saved points (floats, bit-identical to what the plugin saw).
+case_normals_match_cli() {
+  cc -O "$SAMPLE" -NHNET_NORMALS -METHOD mfps -ORIENT none -SAVE_CLOUDS FILE cc.ply
+  expect_rc 0
+  loaded
+  log_has "[NH-Net] 'fandisk_noise0.6': 20000 points, 0 failed, method mfps"
+  [[ -s cc.ply ]] || fail "cc.ply not written"
+  "$CLI" estimate cc.ply cli.ply --method mfps --orient none --quiet || fail "nhnet-cli failed"
+  "$PY" "$COMPARE" cc.ply cli.ply --max-deg 0.25 --mean-deg 0.1 || fail "normals differ from the CLI's"
+  # Against the ground truth: the CLI's own error plus the quantisation (0.1 degree mean).
+  local cli_mean cc_mean
+  cli_mean=$("$PY" "$COMPARE" cli.ply "$GT" | awk '{print $6}')
+  cc_mean=$("$PY" "$COMPARE" cc.ply "$GT" | awk '{print $6}')
+  echo "mean error vs ground truth: CloudCompare $cc_mean, CLI $cli_mean degrees"
+  awk -v a="$cc_mean" -v b="$cli_mean" 'BEGIN { exit !(a != "" && a <= b + 0.1 && a < 20) }' ||
+    fail "CloudCompare's mean error $cc_mean is not within 0.1 degree of the CLI's $cli_mean"
+}
+
+# Default options (no -METHOD / -ORIENT), a second command on the same cloud (PCA), and
+# auto-save: each command exports the cloud with its suffix next to the input.
+case_defaults_and_autosave() {
+  cp "$SAMPLE" in.xyz
+  set +e
+  XDG_DATA_HOME="$WORK/data" XDG_CONFIG_HOME="$WORK/config" XDG_RUNTIME_DIR="$WORK" \
+    QT_QPA_PLATFORM=offscreen "$CC" -SILENT -NO_TIMESTAMP -C_EXPORT_FMT PLY -O in.xyz \
+    -NHNET_NORMALS -NHNET_NORMALS -METHOD pca -THREADS 1 >log.txt 2>&1
+  RC=$?
+  set -e
+  expect_rc 0
+  log_has "method mfps"
+  log_has "method pca"
+  ls in_NHNET_NORMALS*.ply >/dev/null 2>&1 || fail "no auto-saved in_NHNET_NORMALS*.ply"
+  "$PY" "$COMPARE" "$(ls in_NHNET_NORMALS*.ply | head -n 1)" "$GT" --mean-deg 20 ||
+    fail "auto-saved normals are far from the ground truth"
+}
+
+# -ORIENT keep flips the estimated normals to agree with the cloud's existing ones: the input is
+# the sample's ground truth with its normals, loaded and saved as PLY by CloudCompare itself.
+case_orient_keep() {
+  # Load the ground truth (x y z nx ny nz; CloudCompare reads the 6 columns of a .xyz as a point
+  # and its normal) and save it as PLY with its normals.
+  cp "$GT" gt.xyz
+  cc -O gt.xyz -SAVE_CLOUDS FILE gt.ply
+  expect_rc 0
+  "$PY" "$COMPARE" gt.ply "$GT" --signed --max-deg 0.25 >/dev/null || fail "CloudCompare did not read the normals of $GT"
+  cc -O gt.ply -NHNET_NORMALS -METHOD pca -ORIENT keep -SAVE_CLOUDS FILE keep.ply
+  expect_rc 0
+  log_has "orient keep ("
+  # Signed agreement: every valid normal points to the same side as the input's (< 90 degrees).
+  "$PY" "$COMPARE" keep.ply gt.ply --signed --max-deg 90 ||
+    fail "orient keep left normals pointing against the input's"
+}
+
+# -ORIENT mst (and the default, auto = mst for a cloud without normals) orients a closed sphere
+# outward; -ORIENT viewpoint 0 0 0 turns every normal towards the centre. All points must agree:
+# the sphere is smooth and well sampled, so a single wrong sign is a bug.
+case_orient_mst_viewpoint() {
+  "$PY" -c '
+import numpy as np
+rng = np.random.default_rng(3)
+p = rng.normal(size=(3000, 3)); p /= np.linalg.norm(p, axis=1, keepdims=True)
+np.savetxt("sphere.xyz", p + [5.0, -2.0, 1.0], fmt="%.7f")'
+  local check='
+import sys, importlib.util, numpy as np
+spec = importlib.util.spec_from_file_location("c", sys.argv[1]); c = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(c)
+p, n = c.read(sys.argv[2]); want = float(sys.argv[3])
+s = np.sign(((p - [5.0, -2.0, 1.0]) * n).sum(1))
+bad = int((s != want).sum())
+side = "outward" if want > 0 else "inward"
+print(f"{sys.argv[2]}: {bad} of {len(s)} normals not pointing {side}")
+sys.exit(1 if bad else 0)'
+  cc -O sphere.xyz -NHNET_NORMALS -METHOD pca -ORIENT mst -SAVE_CLOUDS FILE mst.ply
+  expect_rc 0
+  log_has "orient mst ("
+  "$PY" -c "$check" "$COMPARE" mst.ply 1 || fail "mst did not orient the sphere outward"
+  cc -O sphere.xyz -NHNET_NORMALS -METHOD pca -SAVE_CLOUDS FILE auto.ply
+  expect_rc 0
+  log_has "orient mst ("
+  "$PY" -c "$check" "$COMPARE" auto.ply 1 || fail "the default orientation is not outward"
+  cc -O sphere.xyz -NHNET_NORMALS -METHOD pca -ORIENT viewpoint 5 -2 1 -SAVE_CLOUDS FILE vp.ply
+  expect_rc 0
+  log_has "orient viewpoint ("
+  "$PY" -c "$check" "$COMPARE" vp.ply -1 || fail "viewpoint did not turn the normals to the centre"
+}
+
+# Bad options: a clear one-line error naming the option, exit 1, nothing saved.
+case_bad_options() {
+  head -n 2000 "$SAMPLE" >small.xyz
+  SAMPLE=small.xyz
+  cc -O "$SAMPLE" -NHNET_NORMALS -METHOD sideways -SAVE_CLOUDS FILE out.ply
+  expect_rc 1
+  log_has "unknown method 'sideways' (expected pca or mfps)"
+  [[ ! -e out.ply ]] || fail "out.ply written despite the error"
+  cc -O "$SAMPLE" -NHNET_NORMALS -ORIENT upwards
+  expect_rc 1
+  log_has "unknown orientation 'upwards'"
+  cc -O "$SAMPLE" -NHNET_NORMALS -THREADS many
+  expect_rc 1
+  log_has "-THREADS needs an integer, got 'many'"
+  cc -O "$SAMPLE" -NHNET_NORMALS -SCALES 50,x
+  expect_rc 1
+  log_has "scales must be 'auto' or integers"
+  cc -O "$SAMPLE" -NHNET_NORMALS -METHOD
+  expect_rc 1
+  log_has "missing value after -METHOD"
+  cc -O "$SAMPLE" -NHNET_NORMALS -ORIENT viewpoint 1 2
+  expect_rc 1
+  log_has "missing value after -ORIENT viewpoint"
+  # An option this command does not know is left to CloudCompare, which refuses it.
+  cc -O "$SAMPLE" -NHNET_NORMALS -BOGUS_OPTION
+  expect_rc 1
+  log_has "BOGUS_OPTION"
+}
+
+# Bad input: no cloud loaded, and a cloud too small to estimate anything; both exit 1 cleanly.
+case_bad_input() {
+  cc -NHNET_NORMALS
+  expect_rc 1
+  log_has "no cloud loaded"
+  printf '0 0 0\n1 0 0\n' >two.xyz
+  cc -O two.xyz -NHNET_NORMALS -SAVE_CLOUDS FILE out.ply
+  expect_rc 1
+  log_has "at least 3 are needed"
+  [[ ! -e out.ply ]] || fail "out.ply written despite the error"
+}
+
+# Normal-guided denoise on a noisy unit sphere: the mean distance to the sphere drops. Without
+# the core's denoiser the command must refuse cleanly (exit 1, says it is not in this build).
+case_denoise() {
+  "$PY" -c '
+import numpy as np
+rng = np.random.default_rng(7)
+p = rng.normal(size=(4000, 3)); p /= np.linalg.norm(p, axis=1, keepdims=True)
+p += rng.normal(scale=0.01, size=p.shape)
+np.savetxt("sphere.xyz", p, fmt="%.7f")'
+  if [[ ${NHNET_CC_HAS_DENOISE:-0} != 1 ]]; then
+    cc -O sphere.xyz -NHNET_DENOISE
+    expect_rc 1
+    log_has "normal-guided denoise is not in this build of nhnet"
+    return 0
+  fi
+  cc -O sphere.xyz -NHNET_DENOISE -ITERATIONS 10 -NORMALS pca -SAVE_CLOUDS FILE den.ply
+  expect_rc 0
+  log_has "10 iterations"
+  "$PY" -c '
+import sys, importlib.util, numpy as np
+spec = importlib.util.spec_from_file_location("c", sys.argv[1]); c = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(c)
+before = np.loadtxt("sphere.xyz"); after, _ = c.read("den.ply")
+db = np.abs(np.linalg.norm(before, axis=1) - 1).mean(); da = np.abs(np.linalg.norm(after, axis=1) - 1).mean()
+print(f"mean distance to the sphere: before {db:.5f}, after {da:.5f}")
+sys.exit(0 if da < 0.7 * db else 1)' "$COMPARE" || fail "denoise did not move the points closer to the sphere"
+  # Default normals ("auto"): the cloud's own, here from a preceding -NHNET_NORMALS.
+  cc -O sphere.xyz -NHNET_NORMALS -METHOD pca -NHNET_DENOISE -ITERATIONS 5 -SAVE_CLOUDS FILE den2.ply
+  expect_rc 0
+  log_has "5 iterations"
+  log_has "normals input"
+  [[ -s den2.ply ]] || fail "den2.ply not written"
+}
+
+# `cmake --install` puts the plugin where the stock CloudCompare finds it: <prefix>/share/CCCorp/
+# CloudCompare/plugins is searched for every XDG_DATA_DIRS entry (default /usr/local/share).
+case_install_location() {
+  cmake --install "$NHNET_BUILD_DIR" --prefix "$WORK/prefix" --component cloudcompare_plugin >install.txt 2>&1 ||
+    { cat install.txt >&2; fail "cmake --install failed"; }
+  local so="$WORK/prefix/share/CCCorp/CloudCompare/plugins/libQNHNET_PLUGIN.so"
+  [[ -f $so ]] || fail "$so not installed"
+  rm -rf data/CCCorp   # only the installed copy may be found
+  set +e
+  XDG_DATA_HOME="$WORK/data" XDG_DATA_DIRS="$WORK/prefix/share" XDG_CONFIG_HOME="$WORK/config" \
+    XDG_RUNTIME_DIR="$WORK" QT_QPA_PLATFORM=offscreen "$CC" -SILENT -NO_TIMESTAMP -AUTO_SAVE OFF \
+    -C_EXPORT_FMT PLY -O "$SAMPLE" -NHNET_NORMALS -METHOD pca -SAVE_CLOUDS FILE out.ply >log.txt 2>&1
+  RC=$?
+  set -e
+  expect_rc 0
+  log_has "Plugin found: NH-Net normals"
+  [[ -s out.ply ]] || fail "out.ply not written"
+}
+
+"case_$CASE"
+echo "PASS [$CASE]"

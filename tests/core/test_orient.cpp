@@ -1,0 +1,156 @@
+// Orientation stage: MST (CGAL mst_orient_normals per k-NN component) makes the random signs of a
+// closed sphere and of a cube's estimated normals all outward, two separated spheres are two
+// components oriented independently, viewpoint and keep follow their reference, the point order
+// and everything but the signs stay as they were.
+#include "fixtures.hpp"
+
+#include "nhnet/errors.hpp"
+#include "nhnet/estimate.hpp"
+#include "nhnet/orient.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+using namespace nhnet;
+
+namespace {
+
+/// Share of rows where `normals` agrees in sign with `reference` (dot > 0).
+double agreement(const Normals& normals, const Normals& reference) {
+  int64_t agree = 0;
+  for (Eigen::Index i = 0; i < normals.rows(); ++i) agree += normals.row(i).dot(reference.row(i)) > 0;
+  return double(agree) / double(normals.rows());
+}
+
+/// Every row of `after` equals the same row of `before` up to its sign (order kept, no change
+/// beyond the sign).
+void expect_same_up_to_sign(const Normals& after, const Normals& before) {
+  ASSERT_EQ(after.rows(), before.rows());
+  for (Eigen::Index i = 0; i < after.rows(); ++i)
+    ASSERT_TRUE(after.row(i) == before.row(i) || after.row(i) == -before.row(i)) << "row " << i;
+}
+
+}  // namespace
+
+TEST(Orient, MstMakesASphereOutward) {
+  const auto f = fixtures::sphere(5000, 21);
+  const Normals input = fixtures::random_signs(f.normals, 22);
+  Normals n = input;
+  const OrientResult r = orient_normals(f.points, n, OrientOptions{});
+  expect_same_up_to_sign(n, input);
+  // The seed is the highest point with its normal turned to +z: outward on a closed surface,
+  // and exact normals on a densely sampled sphere leave no ambiguous step: 100 %.
+  EXPECT_EQ(agreement(n, f.normals), 1.0);
+  EXPECT_EQ(r.components, 1);
+  EXPECT_EQ(r.unoriented_components, 0);
+  EXPECT_EQ(r.unoriented, 0);
+  EXPECT_EQ(r.invalid, 0);
+  EXPECT_EQ(r.flipped, int64_t((input.array() != f.normals.array()).rowwise().any().count()));
+}
+
+TEST(Orient, MstOrientsEachComponent) {
+  // Two unit spheres 5 apart: the k-NN graph has two components; CGAL alone would orient only
+  // the one holding the seed.
+  const auto a = fixtures::sphere(3000, 31), b = fixtures::sphere(2000, 32);
+  Points p(5000, 3);
+  Normals gt(5000, 3);
+  p << a.points, (b.points.rowwise() + Eigen::RowVector3d(5, 0, 0));
+  gt << a.normals, b.normals;
+  Normals n = fixtures::random_signs(gt, 33);
+  const OrientResult r = orient_normals(p, n, OrientOptions{});
+  EXPECT_EQ(r.components, 2);
+  EXPECT_EQ(r.unoriented_components, 0);
+  EXPECT_EQ(agreement(n.topRows(3000), gt.topRows(3000)), 1.0);
+  EXPECT_EQ(agreement(n.bottomRows(2000), gt.bottomRows(2000)), 1.0);
+}
+
+TEST(Orient, MstMakesACubesEstimatedNormalsOutward) {
+  // Exact face normals are perpendicular across an edge (no sign to propagate); estimated
+  // (PCA) normals turn smoothly over the edge, which is what MST orientation relies on.
+  const auto f = fixtures::cube(20000, 0.002, 41);
+  EstimateOptions eo;
+  eo.method = Method::Pca;
+  eo.k = 20;
+  Normals n = estimate_normals(f.points, eo).normals;
+  const OrientResult r = orient_normals(f.points, n, OrientOptions{});
+  EXPECT_EQ(r.components, 1);
+  // Even at a corner a PCA normal leans towards all three faces (dot ~0.58 > 0): 100 %.
+  EXPECT_EQ(agreement(n, f.normals), 1.0);
+}
+
+TEST(Orient, ViewpointFacesTheSensor) {
+  // A scan-like height field z = 0.1 sin(3x) seen from above.
+  auto f = fixtures::plane(3000, 51);
+  for (Eigen::Index i = 0; i < f.points.rows(); ++i) {
+    const double x = f.points(i, 0);
+    f.points(i, 2) = 0.1 * std::sin(3 * x);
+    f.normals.row(i) = Eigen::RowVector3d(-0.3 * std::cos(3 * x), 0, 1).normalized();
+  }
+  Normals n = fixtures::random_signs(f.normals, 52);
+  OrientOptions o;
+  o.mode = OrientMode::Viewpoint;
+  o.viewpoint = Eigen::Vector3d(0.2, -0.1, 5.0);
+  const OrientResult r = orient_normals(f.points, n, o);
+  EXPECT_EQ(agreement(n, f.normals), 1.0);
+  EXPECT_EQ(r.unoriented, 0);
+  o.viewpoint = Eigen::Vector3d(0, 0, -5.0);  // from below: all flip
+  orient_normals(f.points, n, o);
+  EXPECT_EQ(agreement(n, -f.normals), 1.0);
+}
+
+TEST(Orient, KeepAgreesWithTheReferenceAndSkipsInvalidRows) {
+  const auto f = fixtures::sphere(500, 61);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  Normals n = fixtures::random_signs(f.normals, 62);
+  Normals ref = f.normals;
+  ref.row(3).setConstant(nan);  // no reference: left as it is, counted
+  ref.row(4).setZero();
+  n.row(5).setConstant(nan);  // invalid normal: untouched, counted
+  const Eigen::RowVector3d n3 = n.row(3), n4 = n.row(4);
+  OrientOptions o;
+  o.mode = OrientMode::Keep;
+  const OrientResult r = orient_normals(f.points, n, o, ref);
+  EXPECT_EQ(r.unoriented, 2);
+  EXPECT_EQ(r.invalid, 1);
+  EXPECT_EQ(n.row(3), n3);
+  EXPECT_EQ(n.row(4), n4);
+  EXPECT_TRUE(n.row(5).hasNaN());
+  for (Eigen::Index i = 6; i < n.rows(); ++i) EXPECT_GT(n.row(i).dot(f.normals.row(i)), 0);
+  EXPECT_THROW(orient_normals(f.points, n, o), InvalidOptions);  // keep without a reference
+}
+
+TEST(Orient, MstSkipsInvalidNormalsAndNoneChangesNothing) {
+  const auto f = fixtures::sphere(3000, 71);
+  Normals n = fixtures::random_signs(f.normals, 72);
+  n.row(0).setConstant(std::numeric_limits<double>::quiet_NaN());
+  n.row(1).setZero();
+  Points p = f.points;
+  p(2, 0) = std::numeric_limits<double>::infinity();
+  const Normals input = n;
+  OrientOptions o;
+  o.mode = OrientMode::None;
+  EXPECT_EQ(orient_normals(p, n, o).flipped, 0);
+  EXPECT_TRUE((n.array() == input.array() || n.array().isNaN()).all());
+  o.mode = OrientMode::Mst;
+  o.k = 12;
+  const OrientResult r = orient_normals(p, n, o);
+  EXPECT_EQ(r.invalid, 3);
+  EXPECT_EQ(r.unoriented, 0);
+  EXPECT_EQ(n.row(2), input.row(2));
+  EXPECT_EQ(agreement(n.bottomRows(2997), f.normals.bottomRows(2997)), 1.0);
+  o.k = 1;
+  EXPECT_THROW(orient_normals(p, n, o), InvalidOptions);
+  EXPECT_THROW(orient_normals(p.topRows(5), n, OrientOptions{}), InvalidOptions);
+  EXPECT_EQ(orient_mode_from_string("viewpoint"), OrientMode::Viewpoint);
+  EXPECT_THROW(orient_mode_from_string("up"), InvalidOptions);
+}
+
+TEST(Orient, MstCanBeCancelled) {
+  const auto f = fixtures::sphere(2000, 81);
+  Normals n = f.normals;
+  OrientOptions o;
+  o.run.progress = [](double, const std::string&) { return false; };
+  EXPECT_THROW(orient_normals(f.points, n, o), Cancelled);
+}
