@@ -256,6 +256,7 @@ EstimateResult estimate_normals(const Points& points, const EstimateOptions& opt
     if (first >= 0 && first != i) {
       res.normals.row(i) = res.normals.row(first);
       res.valid[size_t(i)] = res.valid[size_t(first)];
+      res.curvature[i] = res.curvature[first];
     }
   }
   res.spacing = spacing * unit;

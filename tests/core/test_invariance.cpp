@@ -163,8 +163,13 @@ TEST_P(Invariance, ExactDuplicatesSameAsDeduplicated) {
   for (Eigen::Index i = 0; i < p.rows(); ++i)
     for (int c = 0; c < 3; ++c) q.row(c * p.rows() + i) = p.row(i);
   const EstimateResult a = run(p, GetParam()), b = run(q, GetParam());
-  for (int c = 0; c < 3; ++c)
+  for (int c = 0; c < 3; ++c) {
     EXPECT_TRUE(identical(a.normals, b.normals.middleRows(c * p.rows(), p.rows())));
+    for (Eigen::Index i = 0; i < p.rows(); ++i) {
+      const double x = a.curvature[i], y = b.curvature[c * p.rows() + i];
+      EXPECT_TRUE(x == y || (std::isnan(x) && std::isnan(y))) << "curvature of copy " << c << " of " << i;
+    }
+  }
   EXPECT_EQ(b.failed, 3 * a.failed);
   EXPECT_TRUE(std::any_of(b.warnings.begin(), b.warnings.end(), [](const std::string& w) {
     return w.find("duplicate") != std::string::npos;
