@@ -19,7 +19,8 @@ PY=/usr/bin/python3
 # is reported and aborts, which fails the refused-input checks just the same), and the time
 # limit is 6x (ASan runs the estimator several times slower).
 SANITIZED=0
-if ldd "$CLI" 2>/dev/null | grep -q libasan; then SANITIZED=1; fi
+# (no `ldd | grep -q`: grep quitting early SIGPIPEs ldd, which pipefail turns into "no")
+if [[ $(ldd "$CLI" 2>/dev/null || true) == *libasan* ]]; then SANITIZED=1; fi
 
 # limited ARGS...: nhnet-cli under `timeout 10` and `ulimit -v 2 GB`; sets RC; fails on a hang.
 limited() {
