@@ -18,7 +18,8 @@ formats=("$@")
 
 if [[ ! -f build-fuzz/CMakeCache.txt ]]; then
   CC=clang CXX=clang++ cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-    -DNHNET_FUZZ=ON -DNHNET_BUILD_TESTS=OFF -DNHNET_BUILD_CLI=OFF -DNHNET_BUILD_TOOLS=OFF
+    -DNHNET_FUZZ=ON -DNHNET_BUILD_TESTS=OFF -DNHNET_BUILD_CLI=OFF -DNHNET_BUILD_TOOLS=OFF \
+    -DNHNET_BUILD_PYTHON=OFF -DNHNET_BUILD_MESHLAB_PLUGIN=OFF -DNHNET_BUILD_CLOUDCOMPARE_PLUGIN=OFF
 fi
 cmake --build build-fuzz -j2 --target "${formats[@]/#/fuzz_}"
 
