@@ -82,7 +82,12 @@ int run_estimate(const EstimateArgs& a) {
   // 4. Estimate (exit 4 when too few finite points, 130 when interrupted), then orient.
   const double est_end = orient.mode == nhnet::OrientMode::Mst ? 0.9 : 1.0;
   opt.run.progress = rep.callback(0.0, est_end);
-  nhnet::EstimateResult res = nhnet::estimate_normals(cloud.points, opt);
+  nhnet::EstimateResult res;
+  try {
+    res = nhnet::estimate_normals(cloud.points, opt);
+  } catch (const nhnet::UnprocessableInput& e) {
+    throw nhnet::UnprocessableInput(a.in + ": " + e.what());  // name the file (exit 4)
+  }
   rep.clear();
   for (const auto& w : res.warnings) rep.warn(w);
   if (opt.method == nhnet::Method::NhNet && opt.device == "auto" && !a.quiet)
@@ -179,8 +184,15 @@ Command add_estimate_command(CLI::App& parent) {
       "  nhnet-cli estimate noisy.xyz out.xyzn --scales 50,100,150 --json\n"
       "  nhnet-cli estimate scan.ply out.ply --orient viewpoint 0 0 1.5\n\n"
       "Exit codes: 0 ok, 2 bad parameter, 3 bad input, 4 too few finite points,\n"
-      "6 cannot write output, 7 out of memory, 130 interrupted.\n");
-  return Command{sub, [args] { return run_estimate(*args); }};
+      "6 cannot write output, 7 out of memory, 130 SIGINT, 143 SIGTERM.\n");
+  return Command{sub, [args] {
+                   try {
+                     return run_estimate(*args);
+                   } catch (const std::bad_alloc&) {  // exit 7, naming the file
+                     throw OutOfMemory(args->in + ": out of memory (the cloud needs more memory "
+                                       "than this process may use; no output written)");
+                   }
+                 }};
 }
 
 }  // namespace nhcli

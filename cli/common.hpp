@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cstdint>
 #include <functional>
+#include <new>
 #include <string>
 #include <vector>
 
@@ -26,7 +27,18 @@ enum ExitCode : int {
   kUnprocessable = 4,  ///< input readable but cannot be processed (too few finite points)
   kOutput = 6,         ///< output cannot be written (or refused: exists, same as input, ...)
   kMemory = 7,         ///< out of memory
-  kInterrupted = 130,  ///< SIGINT / SIGTERM
+  kInterrupted = 130,  ///< SIGINT (128 + 2, the shell's convention)
+  kTerminated = 143,   ///< SIGTERM (128 + 15)
+};
+
+/// std::bad_alloc with a message naming the file being processed (exit 7).
+class OutOfMemory : public std::bad_alloc {
+ public:
+  explicit OutOfMemory(std::string message) : message_(std::move(message)) {}
+  const char* what() const noexcept override { return message_.c_str(); }
+
+ private:
+  std::string message_;
 };
 
 /// A subcommand: its CLI11 sub-app and what to run when it was selected.

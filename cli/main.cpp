@@ -1,7 +1,8 @@
 // nhnet-cli: command-line front end of the nhnet core. Parses arguments (CLI11), dispatches to a
 // subcommand and maps every failure to one stderr line and a documented exit code:
 //   0 ok, 1 internal error, 2 usage / bad parameter, 3 unreadable or malformed input,
-//   4 input readable but unprocessable, 6 cannot write output, 7 out of memory, 130 interrupted.
+//   4 input readable but unprocessable, 6 cannot write output, 7 out of memory, 130 SIGINT,
+//   143 SIGTERM.
 #include "common.hpp"
 
 #include "nhnet/errors.hpp"
@@ -25,7 +26,8 @@ const char* kExitCodes =
     "  4    input readable but unprocessable (too few finite points)\n"
     "  6    output cannot be written (exists without --overwrite, same as input, no directory)\n"
     "  7    out of memory\n"
-    "  130  interrupted (SIGINT / SIGTERM); no output is left behind\n";
+    "  130  interrupted by SIGINT (Ctrl-C); no output is left behind\n"
+    "  143  terminated by SIGTERM; no output is left behind\n";
 
 int fail(int code, const std::string& message) {
   std::cerr << "nhnet-cli: error: " << nhcli::one_line(message) << std::endl;
@@ -37,7 +39,7 @@ int run_guarded(const std::function<int()>& run) {
     return run();
   } catch (const nhnet::Cancelled&) {
     const int sig = nhcli::interrupted();
-    return fail(nhcli::kInterrupted, std::string("interrupted") +
+    return fail(sig == SIGTERM ? nhcli::kTerminated : nhcli::kInterrupted, std::string("interrupted") +
                                          (sig == SIGTERM ? " (SIGTERM)" : sig == SIGINT ? " (SIGINT)" : "") +
                                          "; no output written");
   } catch (const nhnet::InvalidOptions& e) {
@@ -48,8 +50,9 @@ int run_guarded(const std::function<int()>& run) {
     return fail(nhcli::kUnprocessable, e.what());
   } catch (const nhnet::OutputError& e) {
     return fail(nhcli::kOutput, e.what());
-  } catch (const std::bad_alloc&) {
-    return fail(nhcli::kMemory, "out of memory");
+  } catch (const std::bad_alloc& e) {
+    const bool named = dynamic_cast<const nhcli::OutOfMemory*>(&e) != nullptr;
+    return fail(nhcli::kMemory, named ? e.what() : "out of memory");
   } catch (const std::exception& e) {
     return fail(nhcli::kFailure, std::string("internal error: ") + e.what());
   } catch (...) {

@@ -21,6 +21,8 @@ PKGS=(
   libtbb-dev python3-matplotlib python3-venv
   # python side: bindings, data generation, training
   python3-dev python3-numpy pybind11-dev
+  # reader fuzzing (scripts/fuzz.sh): clang, its libFuzzer/sanitizer runtimes, its OpenMP
+  clang libclang-rt-14-dev libomp-14-dev
   # MeshLab plugin: the stock MeshLab, Qt5 and GLEW headers it compiles against, dpkg-dev to
   # unpack MeshLab's source package (its headers), xvfb/xauth to run meshlabserver headless
   meshlab qtbase5-dev libqt5opengl5-dev libglew-dev dpkg-dev xvfb xauth

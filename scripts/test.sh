@@ -2,7 +2,8 @@
 # Runs every test of the project on a fresh Debian 12 machine (run as root, or with sudo):
 #   bash scripts/test.sh
 # Installs the Debian packages, builds into build/, runs ctest (C++ unit tests and CLI tests)
-# and pytest on tests/python with Debian's /usr/bin/python3. Exits non-zero if anything fails.
+# and pytest on tests/python with Debian's /usr/bin/python3, then the ASan + UBSan build and
+# ctest run of scripts/sanitize.sh (NHNET_SKIP_SANITIZE=1 skips it). Exits non-zero if anything fails.
 # Safe to run again (idempotent). CI runs exactly this through .ci/run.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
@@ -35,6 +36,13 @@ if [[ -d tests/python ]]; then
   fi
 else
   echo "pytest: no tests/python directory; skipped"
+fi
+
+echo "== sanitizers: ASan + UBSan build, the whole ctest suite again (scripts/sanitize.sh)"
+if [[ ${NHNET_SKIP_SANITIZE:-0} == 1 ]]; then
+  echo "sanitizers: skipped (NHNET_SKIP_SANITIZE=1)"
+elif ! bash scripts/sanitize.sh; then
+  failed+=(sanitize)
 fi
 
 if ((${#failed[@]})); then

@@ -54,6 +54,52 @@ namespace nhnet {
 
 namespace {
 
+/// Recentres `pts` (finite) in double and scales it by powers of two so every coordinate lies in
+/// [-2, 2): far-from-origin scans (UTM-scale 1e6 offsets) keep their precision in the float
+/// kd-tree, coordinates near 1e31 or 1e-300 neither overflow float squared distances nor fall
+/// under the absolute floors of the plane fits. Power-of-two factors are exact, so the normals
+/// are those of the same cloud at the origin at unit size. Returns the input length of one
+/// normalised unit.
+double normalise(Points& pts) {
+  double unit = 1.0;
+  // First bring the magnitudes near 1 so that the mean cannot overflow, then recentre, then
+  // scale the extent (which is much smaller than the magnitudes for far-from-origin clouds).
+  for (int pass = 0; pass < 2; ++pass) {
+    if (pass == 1) pts.rowwise() -= pts.colwise().mean();
+    const double max_abs = pts.cwiseAbs().maxCoeff();
+    if (!(max_abs > 0) || !std::isfinite(max_abs)) continue;
+    const int e = std::ilogb(max_abs);
+    pts *= std::ldexp(1.0, -e);
+    unit = std::ldexp(unit, e);
+  }
+  return unit;
+}
+
+/// Keeps in `rows` (finite row indices of `points`, ascending) only the first row of every
+/// exact position, in lexicographic (x, y, z) order of the positions: the pipeline then sees
+/// the same points in the same order whatever the input order, so a permuted cloud gets
+/// bit-identical normals (kd-tree ties, summation order and MFPS's per-patch seeds included).
+/// Returns, for every row of `points`, the row of its first copy (itself when unique; -1 for
+/// rows not in `rows`).
+std::vector<int64_t> dedupe_exact(const Points& points, std::vector<int64_t>& rows) {
+  std::vector<int64_t> first(size_t(points.rows()), -1);
+  std::vector<int64_t> order = rows;
+  const auto less = [&](int64_t a, int64_t b) {
+    for (int d = 0; d < 3; ++d)
+      if (points(a, d) != points(b, d)) return points(a, d) < points(b, d);
+    return false;
+  };
+  std::stable_sort(order.begin(), order.end(), less);  // stable: first copy leads its group
+  std::vector<int64_t> kept;
+  for (size_t i = 0; i < order.size(); ++i) {
+    const bool leads = i == 0 || less(order[i - 1], order[i]);
+    first[size_t(order[i])] = leads ? order[i] : first[size_t(order[i - 1])];
+    if (leads) kept.push_back(order[i]);
+  }
+  rows = std::move(kept);
+  return first;
+}
+
 int max_scale(const std::vector<int>& scales) {
   return scales.empty() ? 0 : *std::max_element(scales.begin(), scales.end());
 }
@@ -79,15 +125,31 @@ EstimateResult estimate_normals(const Points& points, const EstimateOptions& opt
   finite.reserve(size_t(n));
   for (Eigen::Index i = 0; i < n; ++i)
     if (points.row(i).allFinite()) finite.push_back(i);
-  if (finite.size() < 3)
-    throw UnprocessableInput("only " + std::to_string(finite.size()) +
-                             " finite points; at least 3 are needed");
-  if (Eigen::Index(finite.size()) < n)
-    res.warnings.push_back(std::to_string(n - Eigen::Index(finite.size())) +
+  const size_t finite_count = finite.size();
+  if (Eigen::Index(finite_count) < n)
+    res.warnings.push_back(std::to_string(n - Eigen::Index(finite_count)) +
                            " non-finite points skipped (reported as failed)");
+  // Exact duplicates: only the first copy of a position takes part (k copies of one point would
+  // fill its neighbourhood and leave no plane); every copy gets that copy's normal, so a cloud
+  // with duplicated points gets the same normals as the deduplicated cloud. The points are
+  // processed in a canonical (sorted) order, which makes the result independent of the input
+  // order.
+  const std::vector<int64_t> copies = dedupe_exact(points, finite);
+  if (finite.size() < 3)
+    throw UnprocessableInput(
+        "only " + std::to_string(finite.size()) +
+        (finite.size() < finite_count ? " distinct" : "") + " finite points" +
+        (finite.size() < finite_count ? " (" + std::to_string(finite_count) + " with duplicates)"
+                                      : std::string()) +
+        "; at least 3 are needed");
+  if (finite.size() < finite_count)
+    res.warnings.push_back(std::to_string(finite_count - finite.size()) +
+                           " exact duplicate points share the normal of their first copy");
   const Eigen::Index m = Eigen::Index(finite.size());
   Points pts(m, 3);
   for (Eigen::Index i = 0; i < m; ++i) pts.row(i) = points.row(finite[size_t(i)]);
+  // Work in a normalised frame (see normalise()); `unit` converts lengths back to input units.
+  const double unit = normalise(pts);
 
   const RunContext& run = options.run;
   detail::Progress top(run.progress);
@@ -109,7 +171,20 @@ EstimateResult estimate_normals(const Points& points, const EstimateOptions& opt
     res.noise_ratio = ne.ratio;
     res.spacing = ne.spacing;
   }
+  const double spacing = res.spacing;  // normalised units, for the stages below
   ScaleChoice choice = choose_scales(res.noise_ratio, m);
+  {
+    // Fewer points than the automatic sizes want: the sizes are clamped to the cloud (the
+    // documented fallback), and the user is told.
+    const ScaleChoice wanted = choose_scales(res.noise_ratio, kMaxScale);
+    const bool mfps_auto = options.method == Method::Mfps && options.scales.empty();
+    if ((options.k == 0 && wanted.k_smooth > choice.k_smooth) ||
+        (mfps_auto && max_scale(wanted.scales) > max_scale(choice.scales)))
+      res.warnings.push_back("only " + std::to_string(m) + " finite points, fewer than the " +
+                             std::to_string(mfps_auto ? max_scale(wanted.scales) : wanted.k_smooth) +
+                             " neighbours the automatic scale wants; neighbourhoods clamped to " +
+                             std::to_string(m) + " points");
+  }
   if (options.k > 0) choice.k_smooth = options.k;
   if (!options.scales.empty()) choice.scales = options.scales;
   if (choice.k_smooth > m) {
@@ -135,7 +210,7 @@ EstimateResult estimate_normals(const Points& points, const EstimateOptions& opt
     BandwidthOptions bo;
     bo.k_patch = res.k_used;
     bo.k_average = kdepth;
-    const Eigen::VectorXd bw = residual_bandwidth(pts, knn, res.spacing, bo, detail::narrow(run, 0.45, 0.55));
+    const Eigen::VectorXd bw = residual_bandwidth(pts, knn, spacing, bo, detail::narrow(run, 0.45, 0.55));
     MfpsOptions mo;
     mo.scales = choice.scales;
     for (int& s : mo.scales) s = int(std::min<Eigen::Index>(s, m));
@@ -152,6 +227,14 @@ EstimateResult estimate_normals(const Points& points, const EstimateOptions& opt
     out = mr.normals;
   }
 
+  if (options.method == Method::Mfps && kdepth >= 3) {
+    // A candidate whose largest neighbourhood is collinear (or one point) has no plane: MFPS's
+    // random planes through it would be arbitrary, so it stays invalid like its PCA normal.
+    for (Eigen::Index i = 0; i < m; ++i)
+      if (!pca.normals.row(i).allFinite() && out.row(i).allFinite() &&
+          !fit_plane(pts, &knn(i, 0), kdepth, nullptr, nullptr).allFinite())
+        out.row(i).setConstant(std::numeric_limits<double>::quiet_NaN());
+  }
   for (Eigen::Index i = 0; i < m; ++i) {
     const Eigen::RowVector3d nrm = out.row(i);
     if (nrm.allFinite() && nrm.squaredNorm() > 0.5) {
@@ -160,9 +243,19 @@ EstimateResult estimate_normals(const Points& points, const EstimateOptions& opt
       res.curvature[finite[size_t(i)]] = pca.variation[i];
     }
   }
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const int64_t first = copies[size_t(i)];
+    if (first >= 0 && first != i) {
+      res.normals.row(i) = res.normals.row(first);
+      res.valid[size_t(i)] = res.valid[size_t(first)];
+      res.curvature[i] = res.curvature[first];
+    }
+  }
+  res.spacing = spacing * unit;
   res.failed = int64_t(std::count(res.valid.begin(), res.valid.end(), uint8_t(0)));
-  if (res.failed > n - m)
-    res.warnings.push_back(std::to_string(res.failed - (n - m)) +
+  const int64_t nonfinite = n - int64_t(finite_count);
+  if (res.failed > nonfinite)
+    res.warnings.push_back(std::to_string(res.failed - nonfinite) +
                            " points with a degenerate neighbourhood (identical or collinear "
                            "neighbours) got no normal (reported as failed)");
   if (run.progress) {

@@ -307,17 +307,17 @@ std::vector<Column> cloud_columns(const Cloud& cloud, const char* const (&normal
   std::vector<Column> cols;
   const ScalarType coord = points_fit_float(cloud.points) ? ScalarType::Float32 : ScalarType::Float64;
   const char* xyz[3] = {"x", "y", "z"};
-  for (int k = 0; k < 3; ++k) cols.push_back({xyz[k], coord, cloud.points.data() + k, 3});
+  for (int k = 0; k < 3; ++k) cols.push_back({xyz[k], coord, cloud.points.data(), k, 3});
   std::vector<std::string> reserved = {"x", "y", "z"};
   reserved.insert(reserved.end(), extra_reserved.begin(), extra_reserved.end());
   if (cloud.has_normals()) {
     for (int k = 0; k < 3; ++k) {
-      cols.push_back({normal_names[k], ScalarType::Float32, cloud.normals.data() + k, 3});
+      cols.push_back({normal_names[k], ScalarType::Float32, cloud.normals.data(), k, 3});
       reserved.emplace_back(normal_names[k]);
     }
   }
   for (const ExtraProperty* e : writable_extras(cloud, reserved))
-    cols.push_back({e->name, e->type, e->values.data(), 1});
+    cols.push_back({e->name, e->type, e->values.data(), 0, 1});
   return cols;
 }
 
@@ -325,7 +325,7 @@ void write_rows(Sink& sink, const std::vector<Column>& cols, Eigen::Index rows, 
                 std::string& out) {
   for (Eigen::Index i = 0; i < rows; ++i) {
     for (size_t c = 0; c < cols.size(); ++c) {
-      const double v = cols[c].values[i * cols[c].stride];
+      const double v = cols[c].values[cols[c].first + i * cols[c].stride];
       if (ascii) {
         if (c > 0) out += ' ';
         append_number(v, cols[c].type, out);

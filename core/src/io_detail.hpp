@@ -159,7 +159,8 @@ inline void store(Cloud& cloud, const Slot& slot, Eigen::Index row, double value
 struct Column {
   std::string name;
   ScalarType type;
-  const double* values;  ///< element i at values[i * stride]
+  const double* values;  ///< element i at values[first + i * stride]
+  Eigen::Index first;    ///< offset of element 0 (kept apart: values is null for 0 rows)
   Eigen::Index stride;
 };
 

@@ -218,7 +218,9 @@ std::string check_declared_sizes(const FileBytes& file, const Header& header) {
     if (needed > (ascii ? remaining + 1 : remaining))
       return "element " + quote_token(e.name) + " declares " + std::to_string(e.count) + " " +
              plural(e.name) + " of at least " + std::to_string(row) + " bytes each, more than the " +
-             std::to_string(remaining) + " bytes after the header";
+             std::to_string(remaining) + " bytes after the header" +
+             (ascii ? std::string()
+                    : " (unexpected end of file at byte " + std::to_string(file.bytes.size()) + ")");
   }
   return "";
 }

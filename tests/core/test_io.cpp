@@ -655,6 +655,15 @@ TEST_F(IoTest, PlyBinaryTruncatedNeverZeroFilled) {
   expect_input_error(put("trunc.ply", t), "vertex 2");
 }
 
+TEST_F(IoTest, PlyBinaryCutInsideVerticesNamesTheEndByte) {
+  // Caught by the size check before any allocation; the message still gives the end-of-file byte.
+  std::string b = "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n"
+                  "property float y\nproperty float z\nend_header\n";
+  for (int i = 0; i < 9; ++i) b += le<float>(float(i));
+  b.resize(b.size() - 5);
+  expect_input_error(put("cut.ply", b), "unexpected end of file at byte " + std::to_string(b.size()));
+}
+
 TEST_F(IoTest, PlyDeclaredSizeRefusedBeforeAllocating) {
   std::string b = "ply\nformat binary_little_endian 1.0\nelement vertex 1000000000000\n"
                   "property double x\nproperty double y\nproperty double z\nend_header\n";

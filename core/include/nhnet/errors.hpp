@@ -1,7 +1,7 @@
 // Exceptions thrown by the core. Front ends map them to exit codes / host-app messages:
 // InvalidOptions -> 2 (usage), InputError -> 3 (unreadable or malformed input),
 // UnprocessableInput -> 4 (readable but too few valid points), OutputError -> 6 (cannot write),
-// Cancelled -> 130 (the progress callback asked to stop).
+// Cancelled -> 130 / 143 (the progress callback asked to stop: SIGINT / SIGTERM in the CLI).
 #pragma once
 
 #include <stdexcept>
