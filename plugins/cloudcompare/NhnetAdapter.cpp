@@ -22,10 +22,10 @@ namespace {
 
 /// The core's estimators offered by the plugin (GUI list and -METHOD), the core's default first.
 /// NH-Net: add its nhnet::Method here.
-const nhnet::Method kMethods[] = {nhnet::Method::Mfps, nhnet::Method::Pca};
+const nhnet::Method kMethods[] = {nhnet::Method::Mfps, nhnet::Method::Pca, nhnet::Method::NhNet};
 
 /// Methods that read a TorchScript model (the model setting is ignored by the others).
-bool uses_model(nhnet::Method) { return false; }
+bool uses_model(nhnet::Method m) { return m == nhnet::Method::NhNet; }
 
 const char* const kOrientNames[] = {"auto", "keep", "none", "mst", "viewpoint"};
 
@@ -63,6 +63,7 @@ Prepared prepare(const NormalsSettings& s) {
     p.warnings << "scales are ignored by the pca method";
   if (!s.model.isEmpty() && !uses_model(p.options.method))
     p.warnings << QString("model file ignored: method %1 uses no model").arg(s.method);
+  if (uses_model(p.options.method)) p.options.model = str(s.model.trimmed());  // empty = shipped
   return p;
 }
 

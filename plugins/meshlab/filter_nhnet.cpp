@@ -26,6 +26,7 @@ struct Choice {
 const Choice<nhnet::Method> kMethods[] = {
     {nhnet::Method::Mfps, "MFPS (PCA + multi-scale patch selection near features)"},
     {nhnet::Method::Pca, "PCA"},
+    {nhnet::Method::NhNet, "NH-Net (MFPS refined by the learned model; slower)"},
 };
 
 // Orientation choices, in menu order. Default: keep when the layer has vertex normals (a mesh's
@@ -214,7 +215,8 @@ void NhnetFilterPlugin::initParameterSet(QAction* action, MeshModel& m, RichPara
       par.addParam(RichEnum("method", 0, labels(kMethods), "Method",
                             "MFPS: PCA for smooth points, multi-scale fitting patch selection "
                             "near sharp features (paper Sec. 4). PCA: plain PCA over the k "
-                            "nearest neighbours."));
+                            "nearest neighbours. NH-Net: MFPS refined by the learned model "
+                            "(paper Sec. 5; several times slower)."));
       par.addParam(RichInt("k", e.k, "PCA neighbours (0 = auto)",
                            "Neighbourhood size of PCA (self included), an integer >= 3; 0 = "
                            "chosen from the estimated noise level."));
@@ -243,6 +245,9 @@ void NhnetFilterPlugin::initParameterSet(QAction* action, MeshModel& m, RichPara
       par.addParam(RichInt("seed", int(e.seed), "Random seed",
                            "Seed of MFPS's random plane samples (results are deterministic for "
                            "a seed)."));
+      par.addParam(RichString("model", "", "NH-Net model file",
+                              "TorchScript model written by nhnet-export; empty = the shipped "
+                              "model installed with nhnet. Used by the NH-Net method only."));
       break;
     case FP_DENOISE:
       par.addParam(RichInt("iterations", d.iterations, "Iterations",
@@ -313,6 +318,7 @@ void NhnetFilterPlugin::estimate(MeshModel& mm, const RichParameterList& par,
   oopt.k = par.getInt("mst_k");
   opt.run.threads = non_negative(par, "threads");
   opt.seed = uint64_t(non_negative(par, "seed"));
+  if (opt.method == nhnet::Method::NhNet) opt.model = par.getString("model").trimmed().toStdString();
   opt.run.progress = progress_of(cb);
   oopt.run = opt.run;
 

@@ -71,6 +71,18 @@ case_normals_match_cli() {
     fail "CloudCompare's mean error $cc_mean is not within 0.1 degree of the CLI's $cli_mean"
 }
 
+# -METHOD nhnet (the shipped model, found by the core) on the first 3000 sample points: equal to
+# nhnet-cli --method nhnet's within the quantisation bound above.
+case_nhnet_matches_cli() {
+  head -n 3000 "$SAMPLE" >small.xyz
+  cc -O small.xyz -NHNET_NORMALS -METHOD nhnet -ORIENT none -SAVE_CLOUDS FILE cc.ply
+  expect_rc 0
+  log_has "method nhnet"
+  [[ -s cc.ply ]] || fail "cc.ply not written"
+  "$CLI" estimate cc.ply cli.ply --method nhnet --orient none --quiet || fail "nhnet-cli failed"
+  "$PY" "$COMPARE" cc.ply cli.ply --max-deg 0.25 --mean-deg 0.1 || fail "normals differ from the CLI's"
+}
+
 # Default options (no -METHOD / -ORIENT), a second command on the same cloud (PCA), and
 # auto-save: each command exports the cloud with its suffix next to the input.
 case_defaults_and_autosave() {

@@ -28,12 +28,12 @@ mls() { xvfb-run -a "$T/ml/meshlabserver" "$@" >"$T/last.log" 2>&1; }
 
 # An .mlx script running "Estimate normals (NH-Net)". meshlabserver needs every parameter, in
 # the filter's order (it asserts otherwise), and enum_cardinality on enums.
-# estimate_mlx METHOD K SCALES ORIENTATION  (method 0 = MFPS, 1 = PCA; orientation 0 = keep,
+# estimate_mlx METHOD K SCALES ORIENTATION  (method 0 = MFPS, 1 = PCA, 2 = NH-Net; orientation 0 = keep,
 # 1 = viewpoint (the origin), 2 = MST, 3 = none)
 estimate_mlx() {
   cat <<MLX
   <filter name="Estimate normals (NH-Net)">
-   <Param type="RichEnum" name="method" value="$1" enum_cardinality="2"/>
+   <Param type="RichEnum" name="method" value="$1" enum_cardinality="3"/>
    <Param type="RichInt" name="k" value="$2"/>
    <Param type="RichString" name="scales" value="$3"/>
    <Param type="RichEnum" name="orientation" value="$4" enum_cardinality="4"/>
@@ -41,6 +41,7 @@ estimate_mlx() {
    <Param type="RichInt" name="mst_k" value="18"/>
    <Param type="RichInt" name="threads" value="0"/>
    <Param type="RichInt" name="seed" value="1"/>
+   <Param type="RichString" name="model" value=""/>
   </filter>
 MLX
 }
@@ -86,6 +87,26 @@ if mls -i in.ply -o ml.ply -m vn -s est.mlx; then
   fi
 else
   fail "estimate on the sample exited $?"; cat last.log
+fi
+
+# 2b. NH-Net (the shipped model) on the first 3000 sample points: the plugin's normals equal
+# nhnet-cli --method nhnet's (same core, same model, same float coordinates; 0.01 degrees RMS as
+# above).
+head -n 3000 "$sample" | awk '{ l[n++] = $0 } END { print "ply\nformat ascii 1.0\nelement vertex " n;
+       print "property float x\nproperty float y\nproperty float z\nend_header";
+       for (i = 0; i < n; i++) print l[i] }' >small_ascii.ply
+mls -i small_ascii.ply -o small.ply || { cat last.log; exit 1; }
+estimate_mlx 2 0 auto 3 | script >nhnet.mlx
+if mls -i small.ply -o ml_nhnet.ply -m vn -s nhnet.mlx; then
+  "$CLI" estimate small.ply cli_nhnet.ply --method nhnet --orient none --quiet
+  rms=$("$CLI" eval ml_nhnet.ply cli_nhnet.ply --json | sed -E 's/.*"rms_deg": *([0-9.eE+-]+).*/\1/')
+  if awk -v r="$rms" 'BEGIN { exit !(r < 0.01) }'; then
+    pass "NH-Net method: plugin vs nhnet-cli --method nhnet RMS $rms deg (< 0.01)"
+  else
+    fail "NH-Net method: plugin vs nhnet-cli --method nhnet RMS $rms deg (>= 0.01)"
+  fi
+else
+  fail "NH-Net estimate exited $?"; cat last.log
 fi
 
 # radial_worst PLY SIGN: "count worst-angle" between the vertex normals of an ASCII PLY (x y z
