@@ -66,48 +66,35 @@ else
   fail "the two filters are not listed"; cat last.log
 fi
 
-# 2. The noisy sample as a point set: the plugin's normals equal nhnet-cli's on the same input.
-# meshlabserver itself writes the binary PLY both read, so both see the same float coordinates.
+# same_as_cli NAME METHOD LINES: the first LINES points of the sample as a point set through
+# "Estimate normals (NH-Net)" (method index METHOD, no orientation) and through
+# `nhnet-cli estimate --method NAME --orient none`: the same normals. meshlabserver itself writes
+# the binary PLY both read, so both see the same float coordinates; the same deterministic core on
+# the same doubles leaves only the rounding of the normals to float32 in the two PLY writers
+# (~1e-5 degrees), so 0.01 degrees RMS is strict.
 sample="$SRC/data/sample/fandisk_noise0.6.xyz"
-awk '{ l[n++] = $0 } END { print "ply\nformat ascii 1.0\nelement vertex " n;
+same_as_cli() {
+  head -n "$3" "$sample" | awk '{ l[n++] = $0 } END { print "ply\nformat ascii 1.0\nelement vertex " n;
        print "property float x\nproperty float y\nproperty float z\nend_header";
-       for (i = 0; i < n; i++) print l[i] }' "$sample" >in_ascii.ply
-mls -i in_ascii.ply -o in.ply || { cat last.log; exit 1; }
-estimate_mlx 0 0 auto 3 | script >est.mlx
-if mls -i in.ply -o ml.ply -m vn -s est.mlx; then
-  grep 'NH-Net:' last.log || true
-  "$CLI" estimate in.ply cli.ply --orient none --quiet
-  # The same deterministic core on the same doubles: the only difference is rounding of the
-  # normals to float32 in the two PLY writers (~1e-5 degrees), so 0.01 degrees RMS is strict.
-  rms=$("$CLI" eval ml.ply cli.ply --json | sed -E 's/.*"rms_deg": *([0-9.eE+-]+).*/\1/')
-  if awk -v r="$rms" 'BEGIN { exit !(r < 0.01) }'; then
-    pass "sample point set: plugin vs nhnet-cli RMS $rms deg (< 0.01)"
+       for (i = 0; i < n; i++) print l[i] }' >in_ascii.ply
+  mls -i in_ascii.ply -o in.ply || { cat last.log; exit 1; }
+  estimate_mlx "$2" 0 auto 3 | script >est.mlx
+  if mls -i in.ply -o ml.ply -m vn -s est.mlx; then
+    grep 'NH-Net:' last.log || true
+    "$CLI" estimate in.ply cli.ply --method "$1" --orient none --quiet --overwrite
+    rms=$("$CLI" eval ml.ply cli.ply --json | sed -E 's/.*"rms_deg": *([0-9.eE+-]+).*/\1/')
+    if awk -v r="$rms" 'BEGIN { exit !(r < 0.01) }'; then
+      pass "$1, $3 sample points: plugin vs nhnet-cli RMS $rms deg (< 0.01)"
+    else
+      fail "$1, $3 sample points: plugin vs nhnet-cli RMS $rms deg (>= 0.01)"
+    fi
   else
-    fail "sample point set: plugin vs nhnet-cli RMS $rms deg (>= 0.01)"
+    fail "$1 estimate exited $?"; cat last.log
   fi
-else
-  fail "estimate on the sample exited $?"; cat last.log
-fi
-
-# 2b. NH-Net (the shipped model) on the first 3000 sample points: the plugin's normals equal
-# nhnet-cli --method nhnet's (same core, same model, same float coordinates; 0.01 degrees RMS as
-# above).
-head -n 3000 "$sample" | awk '{ l[n++] = $0 } END { print "ply\nformat ascii 1.0\nelement vertex " n;
-       print "property float x\nproperty float y\nproperty float z\nend_header";
-       for (i = 0; i < n; i++) print l[i] }' >small_ascii.ply
-mls -i small_ascii.ply -o small.ply || { cat last.log; exit 1; }
-estimate_mlx 2 0 auto 3 | script >nhnet.mlx
-if mls -i small.ply -o ml_nhnet.ply -m vn -s nhnet.mlx; then
-  "$CLI" estimate small.ply cli_nhnet.ply --method nhnet --orient none --quiet
-  rms=$("$CLI" eval ml_nhnet.ply cli_nhnet.ply --json | sed -E 's/.*"rms_deg": *([0-9.eE+-]+).*/\1/')
-  if awk -v r="$rms" 'BEGIN { exit !(r < 0.01) }'; then
-    pass "NH-Net method: plugin vs nhnet-cli --method nhnet RMS $rms deg (< 0.01)"
-  else
-    fail "NH-Net method: plugin vs nhnet-cli --method nhnet RMS $rms deg (>= 0.01)"
-  fi
-else
-  fail "NH-Net estimate exited $?"; cat last.log
-fi
+}
+# 2. The whole noisy sample (MFPS, the default) and, NH-Net being slower, its first 3000 points.
+same_as_cli mfps 0 20000
+same_as_cli nhnet 2 3000
 
 # radial_worst PLY SIGN: "count worst-angle" between the vertex normals of an ASCII PLY (x y z
 # nx ny nz first) and SIGN x the direction from the origin (180 for a normal pointing the
