@@ -16,7 +16,7 @@ namespace nhnet {
 
 namespace {
 
-/// splitmix64: small, fast, good enough to draw sample indices; seeded per patch so results do
+/// splitmix64: small, fast, good enough to draw sample indices (seeded per scale, see below) so results do
 /// not depend on scheduling.
 struct SplitMix {
   uint64_t s;
@@ -158,7 +158,11 @@ MfpsResult mfps_normals(const Points& points, const IndexMatrix& knn, const Eige
       patches.fetch_add(1, std::memory_order_relaxed);
       q.resize(size_t(K));
       for (int t = 0; t < K; ++t) q[size_t(t)] = points.row(knn(j, t)).transpose() - pj;
-      SplitMix rng{options.seed * 0x9E3779B97F4A7C15ull ^ (uint64_t(j) << 8) ^ uint64_t(K)};
+      // Every patch of a scale draws the same sequence of neighbour ranks: its planes then depend
+      // only on its members and their distance order, so MFPS is invariant to rotation,
+      // translation, scale and point order (a seed from the point index is not: the core
+      // processes points in a coordinate-sorted order), and independent of scheduling.
+      SplitMix rng{options.seed * 0x9E3779B97F4A7C15ull ^ uint64_t(K)};
       // Scoring subset: the centre plus random members (all when score_subset is 0 or >= K).
       const std::vector<int>* sub = nullptr;
       if (options.score_subset > 0 && options.score_subset < K) {

@@ -354,8 +354,10 @@ case_row21_identical_and_duplicated_points() {
   refused 4 same.xyz "only 1 distinct finite points"
   gen_sphere 300 11 uniq.xyz
   for ((i = 0; i < 20; i++)); do cat uniq.xyz; done >dup20.xyz
-  accepted uniq.xyz uniq.xyzn --method pca --k 16
-  accepted dup20.xyz dup20.xyzn --method pca --k 16
+  # --orient none: the estimate is under test; MST over 20 identical copies per point sees 300
+  # separate parts, each with its own sign.
+  accepted uniq.xyz uniq.xyzn --method pca --k 16 --orient none
+  accepted dup20.xyz dup20.xyzn --method pca --k 16 --orient none
   grep -q "5700 exact duplicate points" stderr.txt || fail "no duplicate warning"
   head -n 300 dup20.xyzn | cmp -s - uniq.xyzn || fail "duplicates changed the normals"
 }
@@ -393,7 +395,9 @@ case_row23_huge_and_mixed_magnitudes() {
 case_row25_out_of_memory() {
   awk 'BEGIN { srand(17); for (i = 0; i < 400000; i++) printf "%.6f %.6f %.6f\n", rand(), rand(), 0.001 * rand() }' >big.xyz
   set +e
-  (ulimit -v 60000 && exec timeout 60 "$CLI" estimate big.xyz out.ply) >stdout.txt 2>stderr.txt
+  # 700 MB of address space: nhnet-cli linked with libtorch needs ~550-600 MB just to load
+  # (measured: --version fails at 500 MB, runs at 600 MB); the 400k-point estimate needs more.
+  (ulimit -v 700000 && exec timeout 60 "$CLI" estimate big.xyz out.ply) >stdout.txt 2>stderr.txt
   RC=$?
   set -e
   [[ $RC == 7 ]] || fail "out of memory exited $RC, expected 7"
