@@ -65,10 +65,8 @@ int run_denoise(const DenoiseArgs& a) {
   check_output(a.in, a.out, a.overwrite);
 
   // 3. Read (exit 3); --normals-from input needs normals in the file.
-  rep.stage("reading");
   std::vector<std::string> read_warnings;
-  nhnet::Cloud cloud = nhnet::read_cloud(a.in, {}, &read_warnings);
-  for (const auto& w : read_warnings) rep.warn(w);
+  nhnet::Cloud cloud = read_input(rep, a.in, read_warnings);
   if (from_input && !cloud.has_normals())
     throw nhnet::InputError(a.in + ": no normals (use --normals-from " + kNormalSources.front() +
                             " to estimate them)");
@@ -100,11 +98,7 @@ int run_denoise(const DenoiseArgs& a) {
     cloud.normals = std::move(normals);
   else
     cloud.normals.resize(0, 3);
-  nhnet::WriteOptions wopt;
-  wopt.ascii = a.ascii;
-  rep.stage("writing", 1.0);
-  nhnet::write_cloud(a.out, cloud, wopt);
-  rep.clear();
+  write_output(rep, a.out, cloud, a.ascii);
   const double seconds = rep.elapsed();
 
   // 6. Summary.

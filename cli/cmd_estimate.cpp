@@ -66,10 +66,8 @@ int run_estimate(const EstimateArgs& a) {
   check_output(a.in, a.out, a.overwrite);
 
   // 3. Read (exit 3).
-  rep.stage("reading");
   std::vector<std::string> read_warnings;
-  nhnet::Cloud cloud = nhnet::read_cloud(a.in, {}, &read_warnings);
-  for (const auto& w : read_warnings) rep.warn(w);
+  nhnet::Cloud cloud = read_input(rep, a.in, read_warnings);
   throw_if_interrupted();
 
   if (a.orient.empty())
@@ -103,11 +101,7 @@ int run_estimate(const EstimateArgs& a) {
 
   // 5. Write (exit 6); write_cloud goes through a temporary file + rename.
   cloud.normals = std::move(res.normals);
-  nhnet::WriteOptions wopt;
-  wopt.ascii = a.ascii;
-  rep.stage("writing", 1.0);
-  nhnet::write_cloud(a.out, cloud, wopt);
-  rep.clear();
+  write_output(rep, a.out, cloud, a.ascii);
   const double seconds = rep.elapsed();
 
   // 6. Summary.

@@ -365,4 +365,19 @@ std::string json_number(double value, int precision) {
   return buf;
 }
 
+nhnet::Cloud read_input(Reporter& rep, const std::string& in, std::vector<std::string>& warnings) {
+  rep.stage("reading");
+  nhnet::Cloud cloud = nhnet::read_cloud(in, {}, &warnings);
+  for (const auto& w : warnings) rep.warn(w);
+  return cloud;
+}
+
+void write_output(Reporter& rep, const std::string& out, const nhnet::Cloud& cloud, bool ascii) {
+  nhnet::WriteOptions wopt;
+  wopt.ascii = ascii;
+  rep.stage("writing", 1.0);
+  nhnet::write_cloud(out, cloud, wopt);
+  rep.clear();
+}
+
 }  // namespace nhcli

@@ -2,6 +2,7 @@
 // progress bar), SIGINT/SIGTERM -> cancel flag, and a tiny JSON writer. No algorithm lives here.
 #pragma once
 
+#include "nhnet/cloud.hpp"
 #include "nhnet/orient.hpp"
 #include "nhnet/progress.hpp"
 
@@ -128,6 +129,14 @@ class Reporter {
   std::chrono::steady_clock::time_point last_draw_;
   std::string last_stage_;
 };
+
+// ---- input / output ------------------------------------------------------------------------------
+
+/// Reads IN (exit 3 on failure) with a "reading" stage, prints the reader's warnings and keeps
+/// them in `warnings` (their count goes into the JSON summary).
+nhnet::Cloud read_input(Reporter& rep, const std::string& in, std::vector<std::string>& warnings);
+/// Writes OUT (exit 6 on failure; a temporary file + rename) with a "writing" stage.
+void write_output(Reporter& rep, const std::string& out, const nhnet::Cloud& cloud, bool ascii);
 
 // ---- orientation ---------------------------------------------------------------------------------
 
