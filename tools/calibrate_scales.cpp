@@ -82,6 +82,7 @@ int main(int argc, char** argv) {
         if (key == "refine") o.mfps_refine_iterations = std::stoi(val);
         if (key == "method") o.method = method_from_string(val);
         if (key == "beta") o.mfps_posterior_beta = std::stod(val);
+        if (key == "geo") o.mfps_edge_sigma_factor = std::stod(val);
         if (key == "fpt") o.mfps_point_sigma_factor = std::stod(val);
         if (key == "s") {
           size_t q = 0;

@@ -221,6 +221,7 @@ EstimateResult estimate_normals(const Points& points, const EstimateOptions& opt
     mo.refine_iterations = options.mfps_refine_iterations;
     mo.point_sigma_factor = options.mfps_point_sigma_factor;
     mo.posterior_beta = options.mfps_posterior_beta;
+    mo.edge_sigma_factor = options.mfps_edge_sigma_factor;
     const MfpsResult mr = mfps_normals(pts, knn, 2.0 * bw, fd.candidate, pca.normals, mo,
                                        detail::narrow(run, 0.55, 1.0));
     res.scales_used = mo.scales;

@@ -96,6 +96,33 @@ double objective(const std::vector<Eigen::Vector3d>& q, const Plane& pl, double 
   return e / double(q.size());
 }
 
+/// P(point p lies on face B) for two faces meeting at the edge line of planes (n1, c1) and
+/// (n2, c2), each face being the half-plane on the side of its centre c; noise std s. Returns
+/// -1 when the planes are (nearly) parallel.
+double edge_posterior(const Eigen::Vector3d& p, const Eigen::Vector3d& n1, const Eigen::Vector3d& c1,
+                      const Eigen::Vector3d& n2, const Eigen::Vector3d& c2, double s) {
+  const Eigen::Vector3d d = n1.cross(n2);
+  const double dn = d.norm();
+  if (!(dn > 1e-3) || !(s > 0)) return -1;
+  // A point e on both planes: minimum-norm solution of n1.e = n1.c1, n2.e = n2.c2, d.e = d.p.
+  Eigen::Matrix3d a;
+  a.row(0) = n1.transpose();
+  a.row(1) = n2.transpose();
+  a.row(2) = (d / dn).transpose();
+  const Eigen::Vector3d b(n1.dot(c1), n2.dot(c2), (d / dn).dot(p));
+  const Eigen::Vector3d e = a.partialPivLu().solve(b);
+  if (!e.allFinite()) return -1;
+  auto loglik = [&](const Eigen::Vector3d& n, const Eigen::Vector3d& c) {
+    Eigen::Vector3d u = (d / dn).cross(n);
+    if ((c - e).dot(u) < 0) u = -u;
+    const double r = (p - e).dot(n) / s, t = (p - e).dot(u) / s;
+    // log(exp(-r^2/2) Phi(t)), Phi via erfc (accurate in the far tail).
+    return -0.5 * r * r + std::log(std::max(0.5 * std::erfc(-t / std::sqrt(2.0)), 1e-300));
+  };
+  const double la = loglik(n1, c1), lb = loglik(n2, c2);
+  return 1.0 / (1.0 + std::exp(std::clamp(la - lb, -700.0, 700.0)));
+}
+
 }  // namespace
 
 MfpsResult mfps_normals(const Points& points, const IndexMatrix& knn, const Eigen::VectorXd& sigma,
@@ -293,7 +320,7 @@ MfpsResult mfps_normals(const Points& points, const IndexMatrix& knn, const Eige
   reduce(best_all, slot_all);
   // Two-face posterior (see mfps.hpp): the best patch among those whose plane differs from the
   // winner's by more than `rival_angle_deg`, found with the same deterministic reduction.
-  const bool blend = options.posterior_beta > 0;
+  const bool blend = options.posterior_beta > 0 || options.edge_sigma_factor > 0;
   const double cos_rival = std::cos(options.rival_angle_deg * M_PI / 180.0);
   std::vector<double> rival_all(size_t(nc), -1.0);
   std::vector<int64_t> rival_slot(size_t(nc), -1);
@@ -330,8 +357,14 @@ MfpsResult mfps_normals(const Points& points, const IndexMatrix& knn, const Eige
       // the angle between them minimises the expected squared angle error.
       Eigen::Vector3d n2 = plane_n[size_t(rs)].cast<double>().normalized();
       if (n2.dot(nrm) < 0) n2 = -n2;
-      const double p2 =
+      double p2 =
           1.0 / (1.0 + std::pow(best_all[size_t(c)] / rival_all[size_t(c)], options.posterior_beta));
+      if (options.edge_sigma_factor > 0) {
+        const double s = options.edge_sigma_factor * sigma[i];
+        const double geo = edge_posterior(points.row(i).transpose(), nrm, plane_c[size_t(slot)], n2,
+                                          plane_c[size_t(rs)], s);
+        if (geo >= 0) p2 = p2 * geo / (p2 * geo + (1 - p2) * (1 - geo));
+      }
       const double theta = std::acos(std::clamp(nrm.dot(n2), -1.0, 1.0));
       if (theta > 1e-9) {
         const Eigen::Vector3d v =

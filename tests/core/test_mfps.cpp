@@ -106,3 +106,37 @@ TEST(Mfps, CandidatesOutsidePatchesKeepBaseNormals) {
   EXPECT_EQ(r.patches, 0);
   EXPECT_EQ((r.normals - p.normals).cwiseAbs().maxCoeff(), 0.0);
 }
+
+TEST(Mfps, EdgePosteriorLowersErrorNearEdges) {
+  // Cube with 0.6 % noise (sigma = 0.021, ~1 spacing at 20k points): within ~2 sigma of an edge
+  // the face a point came from is not decidable, and the argmax puts ~1 in 4 of them on the
+  // wrong face (90 degrees off). The score posterior and the edge-geometry posterior (mfps.hpp)
+  // bend those normals towards the other face by the probability that it is the right one, which
+  // minimises the expected squared error: each step must lower the RMS error near the edges.
+  const double noise = 0.006 * 2 * std::sqrt(3.0);
+  const auto f = fixtures::cube(20000, noise, 11);
+  auto rms_near = [&](double beta, double geo) {
+    EstimateOptions o;
+    o.mfps_posterior_beta = beta;
+    o.mfps_edge_sigma_factor = geo;
+    const EstimateResult r = estimate_normals(f.points, o);
+    const Eigen::VectorXd e = angle_errors_deg(r.normals, f.normals);
+    double s = 0;
+    int c = 0;
+    for (Eigen::Index i = 0; i < f.points.rows(); ++i)
+      if (edge_distance(f.points.row(i).transpose()) < 3 * noise) {
+        s += e[i] * e[i];
+        ++c;
+      }
+    return std::sqrt(s / c);
+  };
+  const double argmax = rms_near(0, 0), score = rms_near(24, 0), both = rms_near(12, 1);
+  RecordProperty("rms_argmax", std::to_string(argmax));
+  RecordProperty("rms_score", std::to_string(score));
+  RecordProperty("rms_score_edge", std::to_string(both));
+  // Measured: argmax 41.8, score posterior 35.1, score + edge 33.6 degrees RMS. Margin 1 degree:
+  // the fixture is deterministic (fixed seed) and the RMS of the ~3000 near-edge points moves by
+  // a few tenths of a degree between fixture seeds.
+  EXPECT_LT(score + 1.0, argmax) << argmax << " " << score << " " << both;
+  EXPECT_LT(both + 1.0, score) << argmax << " " << score << " " << both;
+}

@@ -39,11 +39,12 @@ struct EstimateOptions {
   int mfps_score_subset = 48;
   int mfps_rescore = 3;
   int mfps_refine_iterations = 3;
-  /// MFPS selection (see mfps.hpp): width factor of the point term of Eq. 4, and the two-face
-  /// posterior exponent (0 = the paper's argmax). Defaults measured on the training split
-  /// (tools/README.md).
+  /// MFPS selection (see mfps.hpp): width factor of the point term of Eq. 4, the two-face
+  /// posterior exponent (0 = the paper's argmax) and the edge-geometry posterior's noise width
+  /// (0 = off). Defaults measured on the training split (tools/README.md).
   double mfps_point_sigma_factor = 4;
-  double mfps_posterior_beta = 24;
+  double mfps_posterior_beta = 12;
+  double mfps_edge_sigma_factor = 1;
   /// NH-Net model file (TorchScript from nhnet-export); empty = the shipped model
   /// (default_model_path() in nhnet_model.hpp).
   std::string model;

@@ -49,6 +49,12 @@ struct MfpsOptions {
   double posterior_beta = 0;
   /// Planes closer than this to the winner's (degrees) are the same face, not a rival.
   double rival_angle_deg = 20;
+  /// Edge-geometry posterior (0 = off): the winner's and the rival's planes meet in an edge line;
+  /// each face is the half-plane on its patch's side of it. A point's likelihood under a face is
+  /// exp(-r^2 / 2 s^2) Phi(t / s) (r: distance to the plane, t: signed distance along the face
+  /// from the edge, s = this factor x sigma_i), i.e. the Gaussian noise model integrated over the
+  /// half-plane; it multiplies the score prior (D2/D1)^beta.
+  double edge_sigma_factor = 0;
   /// Seed of the random samples; results do not depend on the thread count.
   uint64_t seed = 1;
 };
