@@ -66,9 +66,8 @@ const std::map<std::string, Runner>& methods() {
       {"pca-auto", [](auto& p, auto& a) { return run_nhnet(p, a, nhnet::Method::Pca, true); }},
       {"mfps", [](auto& p, auto& a) { return run_nhnet(p, a, nhnet::Method::Mfps, false); }},
       {"mfps-auto", [](auto& p, auto& a) { return run_nhnet(p, a, nhnet::Method::Mfps, true); }},
-      // NH-Net hook: when the NH-Net branch lands, add nhnet::Method::Nhnet here and "nhnet" to
-      // METHODS in nhnet_bench.py:
-      // {"nhnet", [](auto& p, auto& a) { return run_nhnet(p, a, nhnet::Method::Nhnet, true); }},
+      // NH-Net with the default model (models/nhnet.pt, or $NHNET_MODEL).
+      {"nhnet", [](auto& p, auto& a) { return run_nhnet(p, a, nhnet::Method::NhNet, true); }},
       {"pcl-pca", [](auto& p, auto& a) { return Output{nhnet_bench::pcl_pca_normals(p, a.k, a.threads), a.k, {}}; }},
       {"cgal-jet", [](auto& p, auto& a) { return Output{nhnet_bench::cgal_jet_normals(p, a.k, a.threads), a.k, {}}; }},
       {"cgal-vcm", [](auto& p, auto& a) {

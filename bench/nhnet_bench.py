@@ -19,6 +19,7 @@ Fig. 5, and time ratio to PCL). See bench/README.md.
 from __future__ import annotations
 
 import argparse
+import hashlib
 import datetime as dt
 import json
 import math
@@ -41,7 +42,7 @@ from nhnet_training import datagen  # noqa: E402
 METHODS: dict[str, tuple[str, bool, str]] = {
     "mfps-auto": ("nhnet mfps (auto scales)", False, "worker"),
     "mfps": ("nhnet mfps (paper scales)", True, "worker"),
-    # "nhnet": ("nhnet NH-Net", False, "worker"),  # NH-Net hook: uncomment when it lands
+    "nhnet": ("nhnet NH-Net (shipped model)", False, "worker"),
     "pca-auto": ("nhnet pca (auto k)", False, "worker"),
     "pca": ("nhnet pca", True, "worker"),
     "pcl-pca": ("PCL NormalEstimationOMP", True, "worker"),
@@ -441,6 +442,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="results directory (default build/bench-results[-quick])")
     ap.add_argument("--build", default=str(REPO / "build"),
                     help="build directory with bench/nhnet-bench-worker and cli/nhnet-cli")
+    ap.add_argument("--model", default=str(REPO / "models" / "nhnet.pt"),
+                    help="NH-Net model of the 'nhnet' method (default: the shipped models/nhnet.pt)")
     ap.add_argument("--open3d-python", default=None,
                     help="python that can import open3d (default: build/bench-venv/bin/python, "
                          "then this python)")
@@ -490,6 +493,15 @@ def main(argv: list[str] | None = None) -> int:
 
     method_notes = {}
     py = None
+    model_info = ""
+    if "nhnet" in methods:
+        model = Path(a.model)
+        if not model.is_file():
+            print(f"nhnet_bench: {model}: model file not found (--model)", file=sys.stderr)
+            return 2
+        os.environ["NHNET_MODEL"] = str(model.resolve())  # read by the worker's default model path
+        model_info = (f", NH-Net model {model.name} (sha256 "
+                      f"{hashlib.sha256(model.read_bytes()).hexdigest()[:12]})")
     o3d_version = "not available" if "open3d" in methods else "not run (not in --methods)"
     if "open3d" in methods:
         py, info = find_open3d_python(a.open3d_python, log)
@@ -511,7 +523,8 @@ def main(argv: list[str] | None = None) -> int:
                                                             else sys.argv[1:])]),
             "commit": git_commit(), "points": points, "threads": a.threads,
             "versions": f"PCL {deb_version('libpcl-dev')}, CGAL {deb_version('libcgal-dev')}, "
-                        f"Open3D {o3d_version}, nanoflann {deb_version('libnanoflann-dev')}",
+                        f"Open3D {o3d_version}, nanoflann {deb_version('libnanoflann-dev')}"
+                        + model_info,
             "method_notes": method_notes}
 
     clouds = ensure_data(data, points, categories, models, log)

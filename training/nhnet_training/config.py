@@ -40,6 +40,7 @@ class TrainConfig:
     # optimisation (authors: SGD lr 1e-4 momentum 0.9 wd 0.02, batch 512, patience 30)
     optimizer: str = "adam"
     lr: float = 1e-3
+    lr_schedule: str = "cosine"               # "cosine": decays to 0 over max_minutes; "constant"
     weight_decay: float = 1e-5
     batch: int = 512
     epochs: int = 20

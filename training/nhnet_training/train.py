@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import math
 import time
 from pathlib import Path
 
@@ -81,6 +82,12 @@ def train(cfg: TrainConfig, data: dict | None = None, log=print) -> dict:
             idx = order[i:i + cfg.batch]
             if len(idx) < 2:
                 continue
+            if cfg.lr_schedule == "cosine":
+                # Time-based cosine decay: the run ends at max_minutes with the step size near 0,
+                # which settles the oscillation a constant rate shows between epochs.
+                frac = min((time.time() - t0) / 60 / cfg.max_minutes, 1.0)
+                for g in opt.param_groups:
+                    g["lr"] = cfg.lr * 0.5 * (1 + math.cos(math.pi * frac))
             loss = loss_fn(model(x[idx]), y[idx])
             opt.zero_grad()
             loss.backward()
