@@ -543,6 +543,12 @@ case_denoise() {
     awk -v a="$after" -v b="$before" 'BEGIN { exit !(a * 1.4 < b) }' \
       || fail "denoise ($src) did not reduce the distance to the sphere 1.4x: $before -> $after"
   done
+  # Default source: nhnet when the shipped model is there, else mfps with a warning.
+  expect 0 denoise noisy.xyz d-default.xyz --iterations 3
+  grep -q "normals from nhnet" stderr.txt || fail "default guiding normals are not nhnet's"
+  NHNET_MODEL=/nonexistent/nhnet.pt expect 0 denoise noisy.xyz d-fallback.xyz --iterations 3
+  grep -q "normals from mfps" stderr.txt || fail "no mfps fallback without the model"
+  grep -q "warning: .*nhnet.pt is missing" stderr.txt || fail "mfps fallback without a warning"
   # No normals in OUT by default; --keep-normals writes them; xyz text keeps 3 columns otherwise.
   awk 'NF != 3 { exit 1 }' d-pca.xyz || fail "OUT has normals without --keep-normals"
   expect 0 denoise noisy.xyz kn.xyzn --normals-from pca --keep-normals --iterations 5 --radius 0.05 --json
