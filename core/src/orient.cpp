@@ -62,7 +62,7 @@ void orient_mst(const Points& points, Normals& normals, const std::vector<int64_
   const int k = int(std::min<Eigen::Index>(options.k, m));
   if (options.run.progress) progress.stage("orient: neighbours", 0, 0.3);
   std::vector<std::vector<int32_t>> adj(static_cast<size_t>(m));
-  double noise = 0;  // lower-quartile residual of the guide planes: the offsets noise alone explains
+  double noise = 0;  // typical offset of a neighbour from a point's guide plane
   if (m > 1) {
     const Neighbors tree(pts);
     RunContext sub;
@@ -83,18 +83,27 @@ void orient_mst(const Points& points, Normals& normals, const std::vector<int64_
     if (options.smooth_guide && m >= 3) {
       IndexMatrix gknn;
       tree.knn_all(options.guide_k, gknn, nullptr, sub);
-      const PcaResult pca = pca_normals(pts, gknn, PcaOptions{int(gknn.cols())}, sub);
-      std::vector<double> rms;
+      const Normals pca = pca_normals(pts, gknn, PcaOptions{int(gknn.cols())}, sub).normals;
       for (Eigen::Index i = 0; i < m; ++i)
-        if (pca.normals.row(i).allFinite()) {
-          guide.row(i) = pca.normals.row(i);
-          rms.push_back(pca.residual_rms[i]);
-        }
-      if (!rms.empty()) {
-        // Lower quartile: guide planes that straddle a thin wall have large residuals.
-        std::nth_element(rms.begin(), rms.begin() + rms.size() / 4, rms.end());
-        noise = rms[rms.size() / 4];
-      }
+        if (pca.row(i).allFinite()) guide.row(i) = pca.row(i);
+    }
+    // Noise: the median over the points of the median offset |(p_j - p_i) . g_i| of their graph
+    // neighbours (~0.95 sigma on a noisy plane); a median, so a wall's other side (a minority of
+    // the k nearest) does not count.
+    std::vector<double> typical;
+    typical.reserve(size_t(m));
+    std::vector<double> off;
+    for (Eigen::Index i = 0; i < m; ++i) {
+      off.clear();
+      for (int32_t j : adj[size_t(i)])
+        off.push_back(std::abs(guide.row(i).dot(pts.row(j) - pts.row(i))));
+      if (off.empty()) continue;
+      std::nth_element(off.begin(), off.begin() + off.size() / 2, off.end());
+      typical.push_back(off[off.size() / 2]);
+    }
+    if (!typical.empty()) {
+      std::nth_element(typical.begin(), typical.begin() + typical.size() / 2, typical.end());
+      noise = typical[typical.size() / 2];
     }
   }
   progress.throw_if_cancelled();

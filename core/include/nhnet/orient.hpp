@@ -58,7 +58,8 @@ struct OrientOptions {
   /// outward normals). false = the seed rule alone (highest point's normal to +z, as CGAL).
   bool outward_vote = true;
   /// Mirror only pairs whose offset along both normals exceeds reflect_noise x the noise (the
-  /// median residual of the guide planes); below that the mirror mostly reflects noise.
+  /// median over the points of the median |(p_j - p_i) . n_i| over their k nearest); below that
+  /// the mirror mostly reflects noise.
   double reflect_noise = 4.0;
   /// Mirror only pairs whose offset makes at least this cosine with both normals (j lies above
   /// or below p_i's tangent plane, as across a wall); other pairs use n_i . n_j.
