@@ -131,7 +131,8 @@ int run_denoise(const DenoiseArgs& a) {
     std::ostringstream line;
     line << "nhnet-cli: " << cloud.size() << " points, " << res.moved << " moved, "
          << res.skipped << " skipped, " << res.isolated << " isolated, normals from "
-         << source << ", " << dopt.iterations << " iterations, " << buf << ", output "
+         << source << ", " << res.iterations << " iterations (at most " << dopt.iterations
+         << "), " << buf << ", output "
          << a.out;
     std::cerr << line.str() << std::endl;
   }
@@ -142,6 +143,7 @@ int run_denoise(const DenoiseArgs& a) {
        << ", \"skipped\": " << res.skipped << ", \"isolated\": " << res.isolated
        << ", \"normals_from\": " << json_string(source)
        << ", \"normals_failed\": " << failed << ", \"iterations\": " << dopt.iterations
+       << ", \"iterations_run\": " << res.iterations
        << ", \"radius\": " << json_number(res.radius, 8)
        << ", \"spacing\": " << json_number(res.spacing, 8)
        << ", \"sigma\": " << json_number(res.sigma)

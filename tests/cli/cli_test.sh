@@ -554,6 +554,7 @@ case_denoise() {
   expect 0 denoise noisy.xyz kn.xyzn --normals-from pca --keep-normals --iterations 5 --radius 0.05 --json
   awk 'NF != 6 { exit 1 }' kn.xyzn || fail "--keep-normals: OUT lacks normals"
   grep -q '"iterations": 5' stdout.txt || fail "JSON lacks iterations 5"
+  grep -Eq '"iterations_run": [1-5],' stdout.txt || fail "JSON lacks iterations_run 1..5"
   grep -q '"radius": 0.05' stdout.txt || fail "JSON lacks radius 0.05"
   # --normals-from input: uses the input's normals; an input without normals is exit 3.
   expect 0 denoise kn.xyzn from-input.xyz --normals-from input
