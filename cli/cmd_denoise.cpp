@@ -1,5 +1,6 @@
 // nhnet-cli denoise IN OUT: normal-guided point denoising (paper Eq. 9, core/denoise.hpp). The
-// guiding normals are estimated (mfps / pca, as `estimate` does) or taken from the input; the
+// guiding normals are estimated (nhnet / mfps / pca, as `estimate` does; default nhnet when the
+// shipped model is there, else mfps with a warning) or taken from the input; the
 // output holds the moved points in the input's order, the input's extra properties, and the
 // normals used when --keep-normals is given. Same io and exit-code rules as `estimate`.
 #include "common.hpp"
@@ -9,11 +10,13 @@
 #include "nhnet/errors.hpp"
 #include "nhnet/estimate.hpp"
 #include "nhnet/io.hpp"
+#include "nhnet/nhnet_model.hpp"
 
 #include <CLI/CLI.hpp>
 
 #include <algorithm>
 #include <cstdio>
+#include <fstream>
 #include <iostream>
 #include <memory>
 #include <sstream>
@@ -22,15 +25,30 @@ namespace nhcli {
 
 namespace {
 
-/// Where the guiding normals come from, best first: the first entry is the default. Every name
-/// but "input" is a method of nhnet::estimate_normals (method_from_string), so a new estimator
-/// is one more entry here.
-const std::vector<std::string> kNormalSources = {"mfps", "pca", "input"};
+/// Where the guiding normals come from, best first: the first entry is the default when it can
+/// run (nhnet: this build links libtorch and the shipped model file is there), else the second.
+/// Every name but "input" is a method of nhnet::estimate_normals (method_from_string), so a new
+/// estimator is one more entry here.
+const std::vector<std::string> kNormalSources = {"nhnet", "mfps", "pca", "input"};
+
+/// The default source: nhnet when it can run, else mfps; `why` says why nhnet could not.
+std::string default_source(std::string& why) {
+  if (!nhnet::nhnet_available()) {
+    why = "this build has no libtorch";
+    return kNormalSources[1];
+  }
+  const std::string model = nhnet::default_model_path();
+  if (model.empty() || !std::ifstream(model).good()) {
+    why = "the NH-Net model " + (model.empty() ? std::string("file") : model) + " is missing";
+    return kNormalSources[1];
+  }
+  return kNormalSources.front();
+}
 
 struct DenoiseArgs {
   std::string in, out;
   std::string iterations = "20";
-  std::string normals_from = kNormalSources.front();
+  std::string normals_from;  // empty = default_source()
   std::string radius;  // empty = from the average spacing
   std::string threads = "0";
   std::string seed = "1";
@@ -49,17 +67,21 @@ int run_denoise(const DenoiseArgs& a) {
   dopt.iterations = parse_int("--iterations", a.iterations, 1);
   if (!a.radius.empty()) dopt.radius = parse_double("--radius", a.radius, 0.0);
   dopt.run.threads = parse_int("--threads", a.threads, 0);
-  if (std::find(kNormalSources.begin(), kNormalSources.end(), a.normals_from) ==
-      kNormalSources.end())
+  std::string fallback_why;
+  const std::string source = a.normals_from.empty() ? default_source(fallback_why) : a.normals_from;
+  if (std::find(kNormalSources.begin(), kNormalSources.end(), source) == kNormalSources.end())
     throw nhnet::InvalidOptions("--normals-from must be one of " + source_list(", ") + ", got '" +
-                                one_line(a.normals_from) + "'");
-  const bool from_input = a.normals_from == "input";
+                                one_line(source) + "'");
+  const bool from_input = source == "input";
   nhnet::EstimateOptions eopt;
-  if (!from_input) eopt.method = nhnet::method_from_string(a.normals_from);
+  if (!from_input) eopt.method = nhnet::method_from_string(source);
   eopt.run.threads = dopt.run.threads;
   eopt.seed = parse_u64("--seed", a.seed);
   check_output_format(a.out);
   Reporter rep(a.quiet);
+  if (!fallback_why.empty())
+    rep.warn("guiding normals from " + source + " (" + fallback_why + "; --normals-from " +
+             kNormalSources.front() + " needs it)");
 
   // 2. Output path (exit 6), before any work.
   check_output(a.in, a.out, a.overwrite);
@@ -68,7 +90,7 @@ int run_denoise(const DenoiseArgs& a) {
   std::vector<std::string> read_warnings;
   nhnet::Cloud cloud = read_input(rep, a.in, read_warnings);
   if (from_input && !cloud.has_normals())
-    throw nhnet::InputError(a.in + ": no normals (use --normals-from " + kNormalSources.front() +
+    throw nhnet::InputError(a.in + ": no normals (use --normals-from " + kNormalSources[1] +
                             " to estimate them)");
   throw_if_interrupted();
 
@@ -109,7 +131,8 @@ int run_denoise(const DenoiseArgs& a) {
     std::ostringstream line;
     line << "nhnet-cli: " << cloud.size() << " points, " << res.moved << " moved, "
          << res.skipped << " skipped, " << res.isolated << " isolated, normals from "
-         << a.normals_from << ", " << dopt.iterations << " iterations, " << buf << ", output "
+         << source << ", " << res.iterations << " iterations (at most " << dopt.iterations
+         << "), " << buf << ", output "
          << a.out;
     std::cerr << line.str() << std::endl;
   }
@@ -118,8 +141,9 @@ int run_denoise(const DenoiseArgs& a) {
     js << "{\"input\": " << json_string(a.in) << ", \"output\": " << json_string(a.out)
        << ", \"points\": " << cloud.size() << ", \"moved\": " << res.moved
        << ", \"skipped\": " << res.skipped << ", \"isolated\": " << res.isolated
-       << ", \"normals_from\": " << json_string(a.normals_from)
+       << ", \"normals_from\": " << json_string(source)
        << ", \"normals_failed\": " << failed << ", \"iterations\": " << dopt.iterations
+       << ", \"iterations_run\": " << res.iterations
        << ", \"radius\": " << json_number(res.radius, 8)
        << ", \"spacing\": " << json_number(res.spacing, 8)
        << ", \"sigma\": " << json_number(res.sigma)
@@ -143,7 +167,8 @@ Command add_denoise_command(CLI::App& parent) {
       ->type_name("N");
   sub->add_option("--normals-from", args->normals_from,
                   source_list(" | ") + ": estimate the guiding normals with that method, or use "
-                  "the input's (default: " + kNormalSources.front() + ")")
+                  "the input's (default: " + kNormalSources.front() + " when the shipped model "
+                  "is there, else " + kNormalSources[1] + ")")
       ->type_name("SOURCE");
   sub->add_option("--radius", args->radius,
                   "Ball radius of the neighbourhoods, input units (default: 2 x average spacing)")

@@ -130,6 +130,55 @@ DenoiseResult denoise_points(const Points& points, const Normals& normals,
                            std::to_string(options.max_neighbors) +
                            " points and kept only the nearest; is the radius too large?");
 
+  // Thin parts: drop the neighbours that lie on another sheet parallel to p_i's (the other side
+  // of a blade or a wall): normal parallel to n_i but far off p_i's tangent plane, further than
+  // sheet_gap x the typical offset of the parallel neighbours (a noise measure: the median over
+  // the points of their median |(p_j - p_i) . n_i|). Neighbours across a sharp edge are not
+  // parallel and stay.
+  if (options.sheet_gap > 0) {
+    const double cos_parallel = std::cos(30.0 * M_PI / 180.0);
+    std::vector<double> typical(static_cast<size_t>(m), -1.0);
+    detail::parallel_for(m, run.threads, nullptr, [&](int64_t i) {
+      thread_local std::vector<double> off;
+      off.clear();
+      const Eigen::RowVector3d ni = nrm.row(i), pi = pts.row(i);
+      for (int64_t e = offset[size_t(i)]; e < offset[size_t(i) + 1]; ++e) {
+        const int32_t j = nb[size_t(e)];
+        if (std::abs(ni.dot(nrm.row(j))) >= cos_parallel)
+          off.push_back(std::abs(ni.dot(pts.row(j) - pi)));
+      }
+      if (off.empty()) return;
+      std::nth_element(off.begin(), off.begin() + off.size() / 2, off.end());
+      typical[size_t(i)] = off[off.size() / 2];
+    });
+    typical.erase(std::remove(typical.begin(), typical.end(), -1.0), typical.end());
+    if (!typical.empty()) {
+      std::nth_element(typical.begin(), typical.begin() + typical.size() / 2, typical.end());
+      res.sheet_gap = options.sheet_gap * typical[typical.size() / 2];
+    }
+    if (res.sheet_gap > 0) {
+      std::vector<int64_t> keep_offset(size_t(m) + 1, 0);
+      int64_t w = 0;
+      for (Eigen::Index i = 0; i < m; ++i) {
+        const Eigen::RowVector3d ni = nrm.row(i), pi = pts.row(i);
+        const int64_t b = offset[size_t(i)], e = offset[size_t(i) + 1];
+        keep_offset[size_t(i)] = w;
+        for (int64_t q = b; q < e; ++q) {
+          const int32_t j = nb[size_t(q)];
+          const bool other_sheet = std::abs(ni.dot(nrm.row(j))) >= cos_parallel &&
+                                   std::abs(ni.dot(pts.row(j) - pi)) > res.sheet_gap;
+          if (other_sheet)
+            ++res.other_sheet;
+          else
+            nb[size_t(w++)] = j;
+        }
+      }
+      keep_offset[size_t(m)] = w;
+      nb.resize(size_t(w));
+      offset.swap(keep_offset);
+    }
+  }
+
   int64_t moved = 0, total_nb = 0;
   for (Eigen::Index i = 0; i < m; ++i) {
     const int64_t c = offset[size_t(i) + 1] - offset[size_t(i)];
@@ -155,9 +204,39 @@ DenoiseResult denoise_points(const Points& points, const Normals& normals,
       weight[size_t(e)] = float(std::exp(-(2.0 - 2.0 * std::abs(d)) * inv_s2));
     }
 
+  // Roughness of positions q: the median over the points of the mean |(q_j - q_i) . n_i| over
+  // their neighbours with a near-parallel normal (same smooth sheet). Noise raises it; a shift
+  // of whole regions (Eq. 9's drift on curved parts) does not.
+  const double cos_par = std::cos(30.0 * M_PI / 180.0);
+  std::vector<uint8_t> parallel(nb.size());
+  for (Eigen::Index i = 0; i < m; ++i)
+    for (int64_t e = offset[size_t(i)]; e < offset[size_t(i) + 1]; ++e)
+      parallel[size_t(e)] = std::abs(nrm.row(i).dot(nrm.row(nb[size_t(e)]))) >= cos_par;
+  std::vector<double> rough_pt(static_cast<size_t>(m));
+  auto roughness = [&](const Points& q) {
+    detail::parallel_for(m, run.threads, nullptr, [&](int64_t i) {
+      double sum = 0;
+      int cnt = 0;
+      for (int64_t e = offset[size_t(i)]; e < offset[size_t(i) + 1]; ++e)
+        if (parallel[size_t(e)]) {
+          sum += std::abs(nrm.row(i).dot(q.row(nb[size_t(e)]) - q.row(i)));
+          ++cnt;
+        }
+      rough_pt[size_t(i)] = cnt > 0 ? sum / cnt : -1.0;
+    });
+    std::vector<double> r;
+    r.reserve(rough_pt.size());
+    for (double v : rough_pt)
+      if (v >= 0) r.push_back(v);
+    if (r.empty()) return 0.0;
+    std::nth_element(r.begin(), r.begin() + r.size() / 2, r.end());
+    return r[r.size() / 2];
+  };
+
   // Iterations (Jacobi: every point reads the positions of the previous step).
   Points cur = pts, next = pts;
   const double lambda = options.lambda;
+  res.roughness.push_back(roughness(cur));
   for (int it = 0; it < options.iterations; ++it) {
     if (run.progress)
       progress.stage("denoising", 0.12 + 0.88 * it / options.iterations,
@@ -178,6 +257,11 @@ DenoiseResult denoise_points(const Points& points, const Normals& normals,
       next.row(i) = (pi + options.step / double(e - b) * delta).transpose();
     });
     std::swap(cur, next);
+    res.iterations = it + 1;
+    res.roughness.push_back(roughness(cur));
+    const size_t t = res.roughness.size() - 1;
+    if (options.stop_drop > 0 && res.roughness[t] > (1.0 - options.stop_drop) * res.roughness[t - 1])
+      break;
   }
 
   for (Eigen::Index i = 0; i < m; ++i) res.points.row(used[size_t(i)]) = cur.row(i);

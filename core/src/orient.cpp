@@ -1,6 +1,5 @@
-// Normal orientation (keep / viewpoint / MST via CGAL's mst_orient_normals, Hoppe et al. 1992),
-// see orient.hpp. CGAL packs the oriented points of the range it is given to the front, so it
-// works on a range of indices into per-component copies; our arrays never change order.
+// Normal orientation (keep / viewpoint / MST, Hoppe et al. 1992, with a reflection criterion),
+// see orient.hpp. The arrays never change order.
 #include "nhnet/orient.hpp"
 
 #include "nhnet/errors.hpp"
@@ -9,13 +8,10 @@
 #include "nhnet/pca.hpp"
 #include "parallel.hpp"
 
-#include <CGAL/Simple_cartesian.h>
-#include <CGAL/mst_orient_normals.h>
-#include <CGAL/property_map.h>
-
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <queue>
 #include <string>
 #include <vector>
 
@@ -41,24 +37,14 @@ const char* to_string(OrientMode mode) {
 
 namespace {
 
-using Kernel = CGAL::Simple_cartesian<double>;
-
 bool valid_normal(const Eigen::RowVector3d& n) {
   const double len = n.norm();
   return std::isfinite(len) && len > 1e-12;
 }
 
-/// Union-find with path halving.
-int32_t find_root(std::vector<int32_t>& parent, int32_t x) {
-  while (parent[size_t(x)] != x) {
-    parent[size_t(x)] = parent[size_t(parent[size_t(x)])];
-    x = parent[size_t(x)];
-  }
-  return x;
-}
-
-/// MST orientation of the rows `used` of points/normals, one CGAL call per k-NN component, on
-/// the guide normals (see OrientOptions::smooth_guide); the signs then go to `normals`.
+/// MST orientation (Hoppe et al. 1992) of the rows `used` of points/normals: Prim's algorithm on
+/// the symmetric k-NN graph, one tree per connected component grown from its highest point, over
+/// the guide normals (OrientOptions::smooth_guide); the signs then go to `normals`.
 void orient_mst(const Points& points, Normals& normals, const std::vector<int64_t>& used,
                 const OrientOptions& options, OrientResult& res) {
   const Eigen::Index m = Eigen::Index(used.size());
@@ -71,23 +57,29 @@ void orient_mst(const Points& points, Normals& normals, const std::vector<int64_
     guide.row(i) = normals.row(used[size_t(i)]).normalized();
   }
 
-  // Components of the symmetric k-NN graph (an edge when either point is among the other's k
-  // nearest, self included).
+  // Symmetric k-NN graph (an edge when either point is among the other's k nearest, self
+  // included), as adjacency lists.
   const int k = int(std::min<Eigen::Index>(options.k, m));
-  if (options.run.progress) progress.stage("orient: neighbours", 0, 0.2);
-  std::vector<int32_t> parent(static_cast<size_t>(m));
-  std::iota(parent.begin(), parent.end(), 0);
-  IndexMatrix knn;
+  if (options.run.progress) progress.stage("orient: neighbours", 0, 0.3);
+  std::vector<std::vector<int32_t>> adj(static_cast<size_t>(m));
+  double noise = 0;  // typical offset of a neighbour from a point's guide plane
   if (m > 1) {
     const Neighbors tree(pts);
     RunContext sub;
     sub.threads = options.run.threads;
+    IndexMatrix knn;
     tree.knn_all(k, knn, nullptr, sub);
     for (Eigen::Index i = 0; i < m; ++i)
       for (Eigen::Index c = 1; c < knn.cols(); ++c) {
-        const int32_t a = find_root(parent, int32_t(i)), b = find_root(parent, knn(i, c));
-        if (a != b) parent[size_t(std::max(a, b))] = std::min(a, b);
+        const int32_t j = knn(i, c);
+        if (j == int32_t(i)) continue;
+        adj[size_t(i)].push_back(j);
+        adj[size_t(j)].push_back(int32_t(i));
       }
+    for (auto& a : adj) {
+      std::sort(a.begin(), a.end());
+      a.erase(std::unique(a.begin(), a.end()), a.end());
+    }
     if (options.smooth_guide && m >= 3) {
       IndexMatrix gknn;
       tree.knn_all(options.guide_k, gknn, nullptr, sub);
@@ -95,98 +87,113 @@ void orient_mst(const Points& points, Normals& normals, const std::vector<int64_
       for (Eigen::Index i = 0; i < m; ++i)
         if (pca.row(i).allFinite()) guide.row(i) = pca.row(i);
     }
-  }
-  progress.throw_if_cancelled();
-  std::vector<std::vector<int32_t>> comps;
-  {
-    std::vector<int32_t> comp_of(static_cast<size_t>(m), -1);
+    // Noise: the median over the points of the median offset |(p_j - p_i) . g_i| of their graph
+    // neighbours (~0.95 sigma on a noisy plane); a median, so a wall's other side (a minority of
+    // the k nearest) does not count.
+    std::vector<double> typical;
+    typical.reserve(size_t(m));
+    std::vector<double> off;
     for (Eigen::Index i = 0; i < m; ++i) {
-      const int32_t r = find_root(parent, int32_t(i));
-      if (comp_of[size_t(r)] < 0) {
-        comp_of[size_t(r)] = int32_t(comps.size());
-        comps.emplace_back();
-      }
-      comps[size_t(comp_of[size_t(r)])].push_back(int32_t(i));
+      off.clear();
+      for (int32_t j : adj[size_t(i)])
+        off.push_back(std::abs(guide.row(i).dot(pts.row(j) - pts.row(i))));
+      if (off.empty()) continue;
+      std::nth_element(off.begin(), off.begin() + off.size() / 2, off.end());
+      typical.push_back(off[off.size() / 2]);
     }
-  }
-  res.components = int64_t(comps.size());
-
-  // One CGAL call per component, on copies indexed 0..size-1; CGAL reorders only `range`.
-  std::vector<uint8_t> oriented(static_cast<size_t>(m), 0);
-  int64_t done = 0;
-  if (options.run.progress) progress.stage("orient: mst", 0.2, 1.0);
-  for (const auto& comp : comps) {
-    const size_t cs = comp.size();
-    std::vector<Kernel::Point_3> cp;
-    std::vector<Kernel::Vector_3> cn;
-    cp.reserve(cs);
-    cn.reserve(cs);
-    for (int32_t li : comp) {
-      cp.emplace_back(pts(li, 0), pts(li, 1), pts(li, 2));
-      cn.emplace_back(guide(li, 0), guide(li, 1), guide(li, 2));
+    if (!typical.empty()) {
+      std::nth_element(typical.begin(), typical.begin() + typical.size() / 2, typical.end());
+      noise = typical[typical.size() / 2];
     }
-    if (cs == 1) {
-      // A lone point (only when the cloud has one valid point): the seed rule, +z.
-      if (cn[0].z() < 0) cn[0] = -cn[0];
-      oriented[size_t(comp[0])] = 1;
-    } else {
-      std::vector<std::size_t> range(cs);
-      std::iota(range.begin(), range.end(), std::size_t(0));
-      const auto first_unoriented = CGAL::mst_orient_normals(
-          range, unsigned(std::max(2, std::min<int>(k, int(cs)))),
-          CGAL::parameters::point_map(CGAL::make_property_map(cp))
-              .normal_map(CGAL::make_property_map(cn))
-              .geom_traits(Kernel()));
-      for (auto it = range.begin(); it != first_unoriented; ++it) oriented[size_t(comp[*it])] = 1;
-    }
-    for (size_t t = 0; t < cs; ++t) guide.row(comp[t]) << cn[t].x(), cn[t].y(), cn[t].z();
-    done += int64_t(cs);
-    if (options.run.progress && !progress.report(double(done) / double(m))) break;
   }
   progress.throw_if_cancelled();
 
-  // Completion: points CGAL left unoriented take the sign of an oriented neighbour in the
-  // symmetric k-NN graph, breadth first from every oriented point.
-  if (std::count(oriented.begin(), oriented.end(), uint8_t(0)) > 0 && knn.rows() == m) {
-    std::vector<std::vector<int32_t>> adj(static_cast<size_t>(m));
-    for (Eigen::Index i = 0; i < m; ++i)
-      for (Eigen::Index c = 1; c < knn.cols(); ++c) {
-        adj[size_t(i)].push_back(knn(i, c));
-        adj[size_t(knn(i, c))].push_back(int32_t(i));
-      }
-    std::vector<int32_t> queue;
-    for (Eigen::Index i = 0; i < m; ++i)
-      if (oriented[size_t(i)]) queue.push_back(int32_t(i));
-    for (size_t q = 0; q < queue.size(); ++q) {
-      const int32_t u = queue[q];
-      for (int32_t v : adj[size_t(u)]) {
-        if (oriented[size_t(v)]) continue;
-        oriented[size_t(v)] = 1;
-        if (guide.row(v).dot(guide.row(u)) < 0) guide.row(v) *= -1.0;
-        ++res.completed;
-        queue.push_back(v);
-      }
+  // Consistency of the pair (i, j): c_ij > 0 when the signs agree. Hoppe: g_i . g_j. Reflection
+  // (OrientOptions::reflect): g_i mirrored at the bisecting plane of p_i p_j, dotted with g_j,
+  //   c_ij = g_i . g_j - 2 (g_i . u)(g_j . u),  u = (p_j - p_i) / |p_j - p_i|,
+  // which maps a normal exactly onto its neighbour's on a sphere, across a sharp edge (cube
+  // faces: |c| = 1 where g_i . g_j = 0) and across a thin wall (opposite sides: c = +1 for
+  // outward normals facing away from each other, where g_i . g_j = -1 would copy the sign).
+  const bool reflect = options.reflect;
+  auto consistency = [&](int32_t i, int32_t j) {
+    const Eigen::RowVector3d gi = guide.row(i), gj = guide.row(j);
+    double c = gi.dot(gj);
+    if (reflect) {
+      const Eigen::RowVector3d d = pts.row(j) - pts.row(i);
+      const double len2 = d.squaredNorm();
+      const double a = gi.dot(d), b = gj.dot(d);
+      const double floor = options.reflect_noise * noise;
+      if (len2 > 0 && std::min(a * a, b * b) >= options.reflect_min * options.reflect_min * len2 &&
+          std::min(std::abs(a), std::abs(b)) > floor)
+        c -= 2.0 * a * b / len2;
+    }
+    return c;
+  };
+
+  // Prim from the highest unvisited point (its guide turned to +z: outward on a closed surface);
+  // each edge costs 1 - |c_ij|, so the sign travels along the most confident pairs.
+  std::vector<int32_t> order(static_cast<size_t>(m));
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(),
+                   [&](int32_t a, int32_t b) { return pts(a, 2) > pts(b, 2); });
+  std::vector<uint8_t> visited(static_cast<size_t>(m), 0);
+  struct Edge {
+    double cost;
+    int32_t from, to;
+    bool operator<(const Edge& o) const { return cost > o.cost; }  // min-heap
+  };
+  std::priority_queue<Edge> heap;
+  if (options.run.progress) progress.stage("orient: mst", 0.3, 1.0);
+  int64_t done = 0;
+  auto visit = [&](int32_t u) {
+    visited[size_t(u)] = 1;
+    for (int32_t v : adj[size_t(u)])
+      if (!visited[size_t(v)]) heap.push(Edge{1.0 - std::abs(consistency(u, v)), u, v});
+    if ((++done & 4095) == 0 && options.run.progress && !progress.report(double(done) / double(m)))
+      progress.throw_if_cancelled();
+  };
+  std::vector<int32_t> members;
+  for (int32_t seed : order) {
+    if (visited[size_t(seed)]) continue;
+    ++res.components;
+    if (guide(seed, 2) < 0) guide.row(seed) *= -1.0;
+    members.assign(1, seed);
+    visit(seed);
+    while (!heap.empty()) {
+      const Edge e = heap.top();
+      heap.pop();
+      if (visited[size_t(e.to)]) continue;
+      if (consistency(e.from, e.to) < 0) guide.row(e.to) *= -1.0;
+      members.push_back(e.to);
+      visit(e.to);
+    }
+    // Global sign of the component: outward on the whole, sum_i (p_i - centroid) . n_i >= 0
+    // (3 x the enclosed volume on a closed surface, divergence theorem). One seed normal decides
+    // badly where the top is a rim or a thin edge.
+    if (options.outward_vote && members.size() > 1) {
+      Eigen::RowVector3d c = Eigen::RowVector3d::Zero();
+      for (int32_t u : members) c += pts.row(u);
+      c /= double(members.size());
+      double flux = 0;
+      for (int32_t u : members) flux += (pts.row(u) - c).dot(guide.row(u));
+      if (flux < 0)
+        for (int32_t u : members) guide.row(u) *= -1.0;
     }
   }
+  progress.throw_if_cancelled();
 
-  // Signs to the caller's normals (only the sign changes, the length stays the caller's).
-  for (const auto& comp : comps) {
-    int64_t left = 0;
-    for (int32_t li : comp) {
-      const int64_t row = used[size_t(li)];
-      const double d = normals.row(row).dot(guide.row(li));
-      if (!oriented[size_t(li)] || !(d != 0)) {
-        ++left;
-        continue;
-      }
-      if (d < 0) {
-        normals.row(row) *= -1.0;
-        ++res.flipped;
-      }
+  // Signs to the caller's normals (only the sign changes, the length stays the caller's); a
+  // normal perpendicular to its oriented guide has no sign to take.
+  for (Eigen::Index li = 0; li < m; ++li) {
+    const int64_t row = used[size_t(li)];
+    const double d = normals.row(row).dot(guide.row(li));
+    if (!(d != 0)) {
+      ++res.unoriented;
+      continue;
     }
-    if (left > 0) {
-      ++res.unoriented_components;
-      res.unoriented += left;
+    if (d < 0) {
+      normals.row(row) *= -1.0;
+      ++res.flipped;
     }
   }
 }

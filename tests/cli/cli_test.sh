@@ -543,11 +543,18 @@ case_denoise() {
     awk -v a="$after" -v b="$before" 'BEGIN { exit !(a * 1.4 < b) }' \
       || fail "denoise ($src) did not reduce the distance to the sphere 1.4x: $before -> $after"
   done
+  # Default source: nhnet when the shipped model is there, else mfps with a warning.
+  expect 0 denoise noisy.xyz d-default.xyz --iterations 3
+  grep -q "normals from nhnet" stderr.txt || fail "default guiding normals are not nhnet's"
+  NHNET_MODEL=/nonexistent/nhnet.pt expect 0 denoise noisy.xyz d-fallback.xyz --iterations 3
+  grep -q "normals from mfps" stderr.txt || fail "no mfps fallback without the model"
+  grep -q "warning: .*nhnet.pt is missing" stderr.txt || fail "mfps fallback without a warning"
   # No normals in OUT by default; --keep-normals writes them; xyz text keeps 3 columns otherwise.
   awk 'NF != 3 { exit 1 }' d-pca.xyz || fail "OUT has normals without --keep-normals"
   expect 0 denoise noisy.xyz kn.xyzn --normals-from pca --keep-normals --iterations 5 --radius 0.05 --json
   awk 'NF != 6 { exit 1 }' kn.xyzn || fail "--keep-normals: OUT lacks normals"
   grep -q '"iterations": 5' stdout.txt || fail "JSON lacks iterations 5"
+  grep -Eq '"iterations_run": [1-5],' stdout.txt || fail "JSON lacks iterations_run 1..5"
   grep -q '"radius": 0.05' stdout.txt || fail "JSON lacks radius 0.05"
   # --normals-from input: uses the input's normals; an input without normals is exit 3.
   expect 0 denoise kn.xyzn from-input.xyz --normals-from input

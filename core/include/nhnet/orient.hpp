@@ -2,13 +2,15 @@
 // estimate, are unoriented: the sign of each normal is arbitrary). Modes:
 //   keep       flip each normal to agree with a reference normal of the same point (the input's)
 //   viewpoint  flip each normal to point towards a sensor position: (v - p_i) . n_i > 0
-//   mst        Hoppe et al. 1992 as CGAL's mst_orient_normals does it: a minimum spanning tree
-//              of the k-NN graph weighted by 1 - |n_i . n_j|, the orientation propagated from a
-//              seed (the highest point of the component, its normal turned to +z, i.e. outward
-//              on a closed surface). Run once per connected component of the k-NN graph (CGAL
-//              alone orients only the component of its seed); the point order never changes.
+//   mst        Hoppe et al. 1992: a minimum spanning tree (Prim) of the symmetric k-NN graph,
+//              each edge weighted by 1 - |c_ij| with c_ij the agreement of the two normals, the
+//              orientation propagated from a seed (the highest point of the component, its
+//              normal turned to +z, i.e. outward on a closed surface), one tree per connected
+//              component; the point order never changes. CGAL's mst_orient_normals takes
+//              c_ij = n_i . n_j; here n_i is first mirrored at the plane bisecting p_i p_j
+//              (OrientOptions::reflect), which stays right across sharp edges and thin walls.
 //              By default it propagates smooth PCA guide normals and copies their signs (see
-//              OrientOptions::smooth_guide): sharp normals cannot carry a sign across an edge.
+//              OrientOptions::smooth_guide).
 //   none       leave the signs as they are
 #pragma once
 
@@ -45,6 +47,23 @@ struct OrientOptions {
   bool smooth_guide = true;
   /// Neighbourhood size of the guide's PCA (self included, >= 3).
   int guide_k = 50;
+  /// Mst: decide whether two neighbours' signs agree by mirroring n_i at the plane bisecting
+  /// p_i p_j before the dot product with n_j (König & Gumhold 2009's idea), instead of Hoppe's
+  /// plain n_i . n_j. Exact on spheres, across sharp edges and across thin walls (the two sides
+  /// of a blade face away from each other: n_i . n_j = -1 would copy a wrong sign through the
+  /// wall). false = Hoppe / CGAL's criterion.
+  bool reflect = true;
+  /// Mst: after propagation, flip a component whose normals point towards its centroid on the
+  /// whole (sum_i (p_i - c) . n_i < 0; on a closed surface that sum is 3 x the volume for
+  /// outward normals). false = the seed rule alone (highest point's normal to +z, as CGAL).
+  bool outward_vote = true;
+  /// Mirror only pairs whose offset along both normals exceeds reflect_noise x the noise (the
+  /// median over the points of the median |(p_j - p_i) . n_i| over their k nearest); below that
+  /// the mirror mostly reflects noise.
+  double reflect_noise = 4.0;
+  /// Mirror only pairs whose offset makes at least this cosine with both normals (j lies above
+  /// or below p_i's tangent plane, as across a wall); other pairs use n_i . n_j.
+  double reflect_min = 0;
   /// Threads (0 = all cores) and progress/cancel callback.
   RunContext run;
 };
@@ -54,18 +73,18 @@ struct OrientResult {
   int64_t flipped = 0;
   /// Valid normals whose sign could not be decided: keep, the reference normal is missing (NaN
   /// or zero) or perpendicular; viewpoint, the normal is perpendicular to the line of sight;
-  /// mst, the point lies in a component that could not be oriented. Left as they were.
+  /// mst, the normal is perpendicular to its oriented guide normal. Left as they were.
   int64_t unoriented = 0;
   /// Normals that are NaN or zero, or whose point is non-finite (never touched).
   int64_t invalid = 0;
   /// Mst: connected components of the k-NN graph over the valid points, and how many of them
-  /// could not be oriented completely (CGAL left some of their points unoriented).
+  /// could not be oriented completely (always 0 since the MST is our own: every point of a
+  /// component is reached; kept for the callers that report it).
   int64_t components = 0;
   int64_t unoriented_components = 0;
-  /// Mst: points CGAL left unoriented although their component is connected (CGAL keeps the
-  /// edge i-j only when the higher index is among the k nearest of the lower one, so its graph
-  /// can fall apart where ours does not); each took the sign of an already oriented neighbour
-  /// in the symmetric k-NN graph (breadth first). Not counted in `unoriented`.
+  /// Mst: points that had to be completed outside the spanning tree. Always 0 since the MST runs
+  /// on the symmetric k-NN graph (CGAL's one-sided graph could fall apart inside a component);
+  /// kept for the callers that report it.
   int64_t completed = 0;
 };
 
