@@ -73,8 +73,28 @@ def cloud_samples(path_xyz: Path, path_normals: Path, cfg: TrainConfig, seed: in
     }
 
 
+def core_fingerprint() -> str:
+    """Short hash of the core's descriptors (MFPS normals included) on a fixed noisy corner cloud:
+    it changes whenever the geometry stage or the descriptors change, so caches keyed by it are
+    never reused across core versions (a stale cache once mixed two MFPS versions)."""
+    import hashlib
+
+    import nhnet
+
+    rng = np.random.default_rng(7)
+    faces = [np.c_[rng.random(200), rng.random(200), np.zeros(200)],
+             np.c_[rng.random(200), np.zeros(200), rng.random(200)],
+             np.c_[np.zeros(200), rng.random(200), rng.random(200)]]
+    pts = np.concatenate(faces) + rng.normal(0, 0.004, (600, 3))
+    d = nhnet.descriptors(pts, threads=1, seed=1)
+    h = hashlib.sha256(np.round(np.nan_to_num(d["features"]).astype(np.float64), 4).tobytes())
+    return f"v{nhnet.DESCRIPTOR_VERSION}-{h.hexdigest()[:10]}"
+
+
 def build_dataset(cfg: TrainConfig, cache_dir: Path, log=print) -> Dict[str, np.ndarray]:
-    """All selected clouds' samples, one cached .npz per cloud (re-runs reuse them)."""
+    """All selected clouds' samples, one cached .npz per cloud (re-runs reuse them), under a
+    subfolder named by core_fingerprint()."""
+    cache_dir = cache_dir / core_fingerprint()
     cache_dir.mkdir(parents=True, exist_ok=True)
     clouds = select_clouds(cfg)
     parts, names = [], []

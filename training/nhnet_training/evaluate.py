@@ -93,10 +93,12 @@ def main(argv=None) -> int:
     ap.add_argument("--json", default="", help="write the per-cloud results here")
     a = ap.parse_args(argv)
     torch.set_num_threads(a.threads)
-    models = [(Path(m).stem, torch.jit.load(m).eval()) for m in a.model]
+    models = [(Path(m).parent.name + "/" + Path(m).stem, torch.jit.load(m).eval()) for m in a.model]
+    from .dataset import core_fingerprint
+    cache = Path(a.cache) / core_fingerprint()  # descriptors of this core version only
     rows = []
     for c in pick_clouds(a.data_dir, a.per_category, a.categories, a.clouds):
-        d = cloud_data(a.data_dir, c, a.points, Path(a.cache), a.threads)
+        d = cloud_data(a.data_dir, c, a.points, cache, a.threads)
         r = {"cloud": c["name"], "category": c["category"], "mfps": float(angles(d["mfps"], d["gt"]).mean())}
         for name, m in models:
             t0 = time.time()
