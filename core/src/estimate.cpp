@@ -113,6 +113,7 @@ EstimateResult estimate_normals(const Points& points, const EstimateOptions& opt
     if (s < 4) throw InvalidOptions("every scale must be at least 4, got " + std::to_string(s));
   if (options.run.threads < 0) throw InvalidOptions("threads must be >= 0");
   if (options.mfps_samples < 1) throw InvalidOptions("mfps samples must be >= 1");
+  detail::start_threads(options.run.threads);  // before the big allocations
 
   EstimateResult res;
   const Eigen::Index n = points.rows();

@@ -210,6 +210,7 @@ OrientResult orient_normals(const Points& points, Normals& normals, const Orient
                          std::to_string(reference.rows()) + " for " +
                          std::to_string(points.rows()) + " points)");
   if (options.run.threads < 0) throw InvalidOptions("orient: threads must be >= 0");
+  detail::start_threads(options.run.threads);  // before the big allocations
 
   OrientResult res;
   std::vector<int64_t> used;

@@ -406,6 +406,26 @@ case_row25_out_of_memory() {
   no_temp_files
 }
 
+# Row 25 with worker threads: at 900 MB the 400k-point estimate fails in its second neighbour
+# search, where Eigen's resize() used to free the probe's table and leave the freed pointer
+# behind (double free: SIGSEGV, exit 139, with 2 threads); a std::bad_alloc inside an OpenMP
+# region ends in std::terminate unless it is carried out of the region. 1, 2 and 4 threads:
+# exit 7 naming the file, no output, no temp file.
+case_row25_out_of_memory_threads() {
+  awk 'BEGIN { srand(17); for (i = 0; i < 400000; i++) printf "%.6f %.6f %.6f\n", rand(), rand(), 0.001 * rand() }' >big.xyz
+  local t
+  for t in 1 2 4; do
+    set +e
+    (ulimit -v 900000 && exec timeout 120 "$CLI" estimate big.xyz out.ply --threads $t) >stdout.txt 2>stderr.txt
+    RC=$?
+    set -e
+    [[ $RC == 7 ]] || fail "out of memory with --threads $t exited $RC, expected 7"
+    one_error_line big.xyz "out of memory"
+    no_file out.ply
+    no_temp_files
+  done
+}
+
 case_row26_bad_parameters() {
   gen_sphere 500 15 in.xyz
   local args
