@@ -231,15 +231,15 @@ case_estimate_nhnet() {
   # The tiny test model (tests/data/make_nhnet_golden.py): checks the plumbing, not accuracy.
   expect 0 estimate sample.xyz n.xyzn --method nhnet --model "$tiny" --threads 2
   grep -q "method nhnet" stderr.txt || fail "summary line lacks 'method nhnet'"
-  grep -q "NH-Net ran on cpu (--device auto)" stderr.txt || fail "--device auto does not say which device"
+  grep -q "NH-Net runs on cpu (--device auto)" stderr.txt || fail "--device auto does not say which device"
   expect 0 eval n.xyzn sample.gt.xyzn
   awk -v v="$(eval_value pgp10)" 'BEGIN { exit !(v > 50) }' || fail "nhnet: PGP10 $(eval_value pgp10) <= 50 %"
-  expect 2 estimate sample.xyz g.xyzn --method nhnet --model "$tiny" --device cuda
+  expect 8 estimate sample.xyz g.xyzn --method nhnet --model "$tiny" --device cuda
   one_error_line "--device cuda" "no CUDA"
   no_file g.xyzn
-  expect 3 estimate sample.xyz m.xyzn --method nhnet --model "$WORK/none.pt"
+  expect 5 estimate sample.xyz m.xyzn --method nhnet --model "$WORK/none.pt"
   one_error_line "no NH-Net model" "--model"
-  expect 2 estimate sample.xyz v.xyzn --method nhnet --model "$SRC/tests/data/nhnet_tiny_v0.pt"
+  expect 5 estimate sample.xyz v.xyzn --method nhnet --model "$SRC/tests/data/nhnet_tiny_v0.pt"
   one_error_line "descriptor_version"
   expect 2 estimate sample.xyz d.xyzn --method mfps --device cpu
   only_error_line "--method nhnet"
