@@ -7,6 +7,7 @@
 #include "nhnet/estimate.hpp"
 #include "nhnet/neighbors.hpp"
 #include "nhnet/pca.hpp"
+#include "dedupe.hpp"
 #include "parallel.hpp"
 
 #include <CGAL/Simple_cartesian.h>
@@ -59,10 +60,12 @@ int32_t find_root(std::vector<int32_t>& parent, int32_t x) {
 
 /// MST orientation of the rows `used` of points/normals, one CGAL call per k-NN component, on
 /// the guide normals (see OrientOptions::smooth_guide); the signs then go to `normals`.
-void orient_mst(const Points& points, Normals& normals, const std::vector<int64_t>& used,
-                const OrientOptions& options, OrientResult& res) {
+/// Returns for every entry of `used` whether it was oriented.
+std::vector<uint8_t> orient_mst(const Points& points, Normals& normals,
+                                const std::vector<int64_t>& used, const OrientOptions& options,
+                                OrientResult& res) {
   const Eigen::Index m = Eigen::Index(used.size());
-  if (m == 0) return;
+  if (m == 0) return {};
   detail::Progress progress(options.run.progress);
   Points pts(m, 3);
   Normals guide(m, 3);
@@ -130,14 +133,38 @@ void orient_mst(const Points& points, Normals& normals, const std::vector<int64_
       if (cn[0].z() < 0) cn[0] = -cn[0];
       oriented[size_t(comp[0])] = 1;
     } else {
-      std::vector<std::size_t> range(cs);
-      std::iota(range.begin(), range.end(), std::size_t(0));
-      const auto first_unoriented = CGAL::mst_orient_normals(
-          range, unsigned(std::max(2, std::min<int>(k, int(cs)))),
-          CGAL::parameters::point_map(CGAL::make_property_map(cp))
-              .normal_map(CGAL::make_property_map(cn))
-              .geom_traits(Kernel()));
-      for (auto it = range.begin(); it != first_unoriented; ++it) oriented[size_t(comp[*it])] = 1;
+      // CGAL seeds its tree at the highest point and orients what the tree reaches in its
+      // mutual k-NN graph. A far outlier as the seed reaches (almost) nothing: when the seed's
+      // tree stays smaller than k, the unreached points get a call of their own (their own
+      // seed), instead of all taking their signs from the outlier in the completion below.
+      std::vector<std::size_t> pending(cs);
+      std::iota(pending.begin(), pending.end(), std::size_t(0));
+      while (pending.size() >= 2) {
+        std::vector<Kernel::Point_3> sp;
+        std::vector<Kernel::Vector_3> sn;
+        sp.reserve(pending.size());
+        sn.reserve(pending.size());
+        for (std::size_t t : pending) {
+          sp.push_back(cp[t]);
+          sn.push_back(cn[t]);
+        }
+        std::vector<std::size_t> range(pending.size());
+        std::iota(range.begin(), range.end(), std::size_t(0));
+        const auto first_unoriented = CGAL::mst_orient_normals(
+            range, unsigned(std::max(2, std::min<int>(k, int(pending.size())))),
+            CGAL::parameters::point_map(CGAL::make_property_map(sp))
+                .normal_map(CGAL::make_property_map(sn))
+                .geom_traits(Kernel()));
+        for (auto it = range.begin(); it != first_unoriented; ++it) {
+          oriented[size_t(comp[pending[*it]])] = 1;
+          cn[pending[*it]] = sn[*it];
+        }
+        const auto reached = first_unoriented - range.begin();
+        if (reached == 0 || reached >= k || first_unoriented == range.end()) break;
+        std::vector<std::size_t> rest;
+        for (auto it = first_unoriented; it != range.end(); ++it) rest.push_back(pending[*it]);
+        pending = std::move(rest);
+      }
     }
     for (size_t t = 0; t < cs; ++t) guide.row(comp[t]) << cn[t].x(), cn[t].y(), cn[t].z();
     done += int64_t(cs);
@@ -187,6 +214,39 @@ void orient_mst(const Points& points, Normals& normals, const std::vector<int64_
     if (left > 0) {
       ++res.unoriented_components;
       res.unoriented += left;
+    }
+  }
+  for (Eigen::Index i = 0; i < m; ++i)
+    if (oriented[size_t(i)] && !(normals.row(used[size_t(i)]).dot(guide.row(i)) != 0))
+      oriented[size_t(i)] = 0;
+  return oriented;
+}
+
+/// MST orientation with exact duplicates seen once: k copies of a position would form their
+/// own k-NN component (each copy's neighbours are the other copies) and be oriented apart from
+/// the surface. Only the first copy takes part; every other copy then takes its sign (the
+/// estimator gives all copies the same normal, so they end up identical).
+void orient_mst_deduplicated(const Points& points, Normals& normals,
+                             const std::vector<int64_t>& used, const OrientOptions& options,
+                             OrientResult& res) {
+  std::vector<int64_t> firsts = used;
+  const std::vector<int64_t> first_of = detail::dedupe_exact(points, firsts);
+  std::sort(firsts.begin(), firsts.end());  // input order, as without duplicates
+  const std::vector<uint8_t> oriented = orient_mst(points, normals, firsts, options, res);
+  if (firsts.size() == used.size()) return;
+  std::vector<int64_t> slot(size_t(points.rows()), -1);  // row -> index in firsts
+  for (size_t i = 0; i < firsts.size(); ++i) slot[size_t(firsts[i])] = int64_t(i);
+  for (const int64_t row : used) {
+    const int64_t first = first_of[size_t(row)];
+    if (first == row) continue;
+    const double d = normals.row(row).dot(normals.row(first));
+    if (!oriented[size_t(slot[size_t(first)])] || !(d != 0)) {
+      ++res.unoriented;
+      continue;
+    }
+    if (d < 0) {
+      normals.row(row) *= -1.0;
+      ++res.flipped;
     }
   }
 }
@@ -244,7 +304,7 @@ OrientResult orient_normals(const Points& points, Normals& normals, const Orient
       }
       break;
     case OrientMode::Mst:
-      orient_mst(points, normals, used, options, res);
+      orient_mst_deduplicated(points, normals, used, options, res);
       break;
   }
   return res;
