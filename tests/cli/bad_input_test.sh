@@ -70,6 +70,26 @@ accepted() {
   no_temp_files
 }
 
+# big_cloud: big.xyz, 400k points (row 25).
+big_cloud() {
+  awk 'BEGIN { srand(17); for (i = 0; i < 400000; i++) printf "%.6f %.6f %.6f\n", rand(), rand(), 0.001 * rand() }' >big.xyz
+}
+
+# oom_refused LIMIT_KB ARGS...: `estimate big.xyz out.ply ARGS` under `ulimit -v LIMIT_KB` is
+# exit 7 with one error line naming big.xyz, no output and no temporary file.
+oom_refused() {
+  local limit=$1
+  shift
+  set +e
+  (ulimit -v "$limit" && exec timeout 120 "$CLI" estimate big.xyz out.ply "$@") >stdout.txt 2>stderr.txt
+  RC=$?
+  set -e
+  [[ $RC == 7 ]] || fail "out of memory (ulimit -v $limit $*) exited $RC, expected 7"
+  one_error_line big.xyz "out of memory"
+  no_file out.ply
+  no_temp_files
+}
+
 PLY_XYZ='property float x\nproperty float y\nproperty float z\n'
 
 
@@ -405,17 +425,10 @@ case_row23_huge_and_mixed_magnitudes() {
 # exit 7 naming the file, no output, no temp file, never a crash. Not run by
 # scripts/sanitize.sh: ASan's operator new aborts instead of throwing std::bad_alloc.
 case_row25_out_of_memory() {
-  awk 'BEGIN { srand(17); for (i = 0; i < 400000; i++) printf "%.6f %.6f %.6f\n", rand(), rand(), 0.001 * rand() }' >big.xyz
-  set +e
+  big_cloud
   # 700 MB of address space: nhnet-cli linked with libtorch needs ~550-600 MB just to load
   # (measured: --version fails at 500 MB, runs at 600 MB); the 400k-point estimate needs more.
-  (ulimit -v 700000 && exec timeout 60 "$CLI" estimate big.xyz out.ply) >stdout.txt 2>stderr.txt
-  RC=$?
-  set -e
-  [[ $RC == 7 ]] || fail "out of memory exited $RC, expected 7"
-  one_error_line big.xyz "out of memory"
-  no_file out.ply
-  no_temp_files
+  oom_refused 700000
 }
 
 # Row 25 with worker threads: at 900 MB the 400k-point estimate fails in its second neighbour
@@ -424,18 +437,9 @@ case_row25_out_of_memory() {
 # region ends in std::terminate unless it is carried out of the region. 1, 2 and 4 threads:
 # exit 7 naming the file, no output, no temp file.
 case_row25_out_of_memory_threads() {
-  awk 'BEGIN { srand(17); for (i = 0; i < 400000; i++) printf "%.6f %.6f %.6f\n", rand(), rand(), 0.001 * rand() }' >big.xyz
+  big_cloud
   local t
-  for t in 1 2 4; do
-    set +e
-    (ulimit -v 900000 && exec timeout 120 "$CLI" estimate big.xyz out.ply --threads $t) >stdout.txt 2>stderr.txt
-    RC=$?
-    set -e
-    [[ $RC == 7 ]] || fail "out of memory with --threads $t exited $RC, expected 7"
-    one_error_line big.xyz "out of memory"
-    no_file out.ply
-    no_temp_files
-  done
+  for t in 1 2 4; do oom_refused 900000 --threads $t; done
 }
 
 # Model file faults (issue 9 item 3): a missing, empty, truncated, corrupt or mismatched model
@@ -561,13 +565,9 @@ case_batch_interrupt() {
   local sig
   for sig in TERM INT; do
     rm -f out/* report.json
-    if [[ $sig == INT ]]; then
-      local ign
-      ign=$(awk '/^SigIgn:/ { print $2 }' /proc/$$/status)
-      if (((16#$ign >> 1) & 1)); then
-        echo "SIGINT is ignored in this environment; SIGINT part skipped"
-        continue
-      fi
+    if [[ $sig == INT ]] && sigint_ignored; then
+      echo "SIGINT is ignored in this environment; SIGINT part skipped"
+      continue
     fi
     set -m
     "$CLI" estimate a.xyz b.xyz big.xyz z.xyz -o out --threads 1 --report report.json \
