@@ -372,8 +372,8 @@ Command add_estimate_command(CLI::App& parent) {
   auto args = std::make_shared<EstimateArgs>();
   CLI::App* sub = parent.add_subcommand(
       "estimate", "Estimate unit normals of a point cloud and write the cloud with them");
-  sub->add_option("IN OUT | IN...", args->files,
-                  "Input cloud and output cloud (format from the extension: .ply, .pcd, "
+  sub->add_option("PATHS", args->files,
+                  "IN OUT: input cloud and output cloud (format from the extension: .ply, .pcd, "
                   ".xyz/.xyzn/.txt; input content is sniffed); with -o DIR: any number of input "
                   "clouds or directories of clouds")
       ->required()
