@@ -191,8 +191,9 @@ Command add_denoise_command(CLI::App& parent) {
       "  nhnet-cli denoise scan.xyzn clean.xyzn --normals-from input --keep-normals\n"
       "  nhnet-cli denoise noisy.xyz clean.xyz --normals-from pca --iterations 10 --radius 0.02\n\n"
       "Exit codes: 0 ok, 2 bad parameter, 3 bad input (or no normals with --normals-from\n"
-      "input), 4 too few usable points, 6 cannot write output, 7 out of memory, 130 interrupted.\n");
-  return Command{sub, [args] { return run_denoise(*args); }};
+      "input), 4 too few usable points, 6 cannot write output, 7 out of memory, 130 SIGINT,\n"
+      "143 SIGTERM.\n");
+  return Command{sub, [args] { return naming_file(args->in, [&] { return run_denoise(*args); }); }};
 }
 
 }  // namespace nhcli

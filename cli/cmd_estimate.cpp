@@ -1,17 +1,27 @@
-// nhnet-cli estimate IN OUT: read a cloud, estimate normals (PCA or MFPS), orient them (keep the
-// input's signs / towards a viewpoint / MST / none), write the cloud with its extra properties.
-// Every check that can fail cheaply (parameters, output path) runs before any reading/computing.
+// nhnet-cli estimate IN OUT | IN... -o DIR: read a cloud, estimate normals (PCA, MFPS or NH-Net),
+// orient them (keep the input's signs / towards a viewpoint / MST / none), write the cloud with
+// its extra properties. Every check that can fail cheaply (parameters, model, output path) runs
+// before any reading/computing. With -o DIR, every input (or every cloud in an input directory)
+// is processed in turn; one failure does not stop the rest (unless --fail-fast).
 #include "common.hpp"
 
 #include "nhnet/cloud.hpp"
 #include "nhnet/errors.hpp"
 #include "nhnet/estimate.hpp"
 #include "nhnet/io.hpp"
+#include "nhnet/nhnet_model.hpp"
 #include "nhnet/orient.hpp"
+#include "nhnet/version.hpp"
+#include "sha256.hpp"
 
 #include <CLI/CLI.hpp>
 
+#include <algorithm>
+#include <csignal>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
 #include <iostream>
 #include <memory>
 #include <sstream>
@@ -20,8 +30,14 @@ namespace nhcli {
 
 namespace {
 
+namespace fs = std::filesystem;
+
 struct EstimateArgs {
-  std::string in, out;
+  std::vector<std::string> files;  // IN OUT, or the inputs with -o DIR
+  std::string out_dir;             // -o: batch mode
+  std::string ext;                 // batch: output extension (default: the input's)
+  std::string report;              // --report JSON path
+  bool fail_fast = false;
   std::string method = "mfps";
   std::string k;  // empty = auto
   std::string scales = "auto";
@@ -33,15 +49,32 @@ struct EstimateArgs {
   bool ascii = false, overwrite = false, quiet = false, json = false;
 };
 
+/// Everything parsed and loaded once for all inputs.
+struct Setup {
+  nhnet::EstimateOptions opt;
+  nhnet::OrientOptions orient;
+  std::string model_path, model_sha256, device = "-";
+};
+
+/// One input's outcome, for the summary and --report.
+struct Outcome {
+  std::string in, out;
+  std::string status = "skipped";  // ok / failed / interrupted / skipped (not run)
+  int exit_code = -1;
+  std::string error;
+  int64_t points = -1, failed = -1;
+  double seconds = 0;
+};
+
 std::string join(const std::vector<int>& v, const char* sep) {
   std::string s;
   for (size_t i = 0; i < v.size(); ++i) s += (i ? sep : "") + std::to_string(v[i]);
   return s;
 }
 
-int run_estimate(const EstimateArgs& a) {
-  // 1. Parameters (exit 2).
-  nhnet::EstimateOptions opt;
+Setup prepare(const EstimateArgs& a) {
+  Setup st;
+  nhnet::EstimateOptions& opt = st.opt;
   opt.method = nhnet::method_from_string(a.method);
   opt.k = a.k.empty() ? 0 : parse_int("--k", a.k, 3);
   opt.scales = parse_scales(a.scales);
@@ -53,43 +86,53 @@ int run_estimate(const EstimateArgs& a) {
     throw nhnet::InvalidOptions("--device must be auto, cpu or cuda, got '" + a.device + "'");
   if (opt.method != nhnet::Method::NhNet && (!a.model.empty() || a.device != "auto"))
     throw nhnet::InvalidOptions("--model and --device only apply to --method nhnet");
-  nhnet::OrientOptions orient;
-  if (!a.orient.empty()) orient = parse_orient(a.orient);
-  orient.run.threads = opt.run.threads;
-  check_output_format(a.out);
+  if (!a.orient.empty()) st.orient = parse_orient(a.orient);
+  st.orient.run.threads = opt.run.threads;
+  return st;
+}
 
+/// Loads the NH-Net model once, before any input is read (exit 5 / 8 on failure).
+void load_model(const EstimateArgs& a, Setup& st) {
+  if (st.opt.method != nhnet::Method::NhNet) return;
+  st.model_path = a.model.empty() ? nhnet::default_model_path() : a.model;
+  auto model = std::make_shared<const nhnet::NhNetModel>(st.model_path, a.device,
+                                                         st.opt.run.threads);
+  st.device = model->device();
+  st.opt.loaded_model = std::move(model);
+  if (!a.report.empty()) st.model_sha256 = sha256_file(st.model_path);
+  if (a.device == "auto" && !a.quiet)
+    std::cerr << "nhnet-cli: NH-Net runs on " << st.device << " (--device auto)" << std::endl;
+}
+
+/// Reads IN, estimates, orients and writes OUT; fills `o`. Throws on failure.
+void run_one(const EstimateArgs& a, const Setup& st, const std::string& in, const std::string& out,
+             Outcome& o) {
+  nhnet::EstimateOptions opt = st.opt;
+  nhnet::OrientOptions orient = st.orient;
   Reporter rep(a.quiet);
-  if (opt.method == nhnet::Method::Pca && !opt.scales.empty())
-    rep.warn("--scales is ignored with --method pca");
 
-  // 2. Output path (exit 6), before any work.
-  check_output(a.in, a.out, a.overwrite);
+  // Output path (exit 6), before any work.
+  check_output(in, out, a.overwrite);
 
-  // 3. Read (exit 3).
+  // Read (exit 3).
   std::vector<std::string> read_warnings;
-  nhnet::Cloud cloud = read_input(rep, a.in, read_warnings);
+  nhnet::Cloud cloud = read_input(rep, in, read_warnings);
   throw_if_interrupted();
+  o.points = int64_t(cloud.size());
 
   if (a.orient.empty())
     orient.mode = cloud.has_normals() ? nhnet::OrientMode::Keep : nhnet::OrientMode::Mst;
   if (orient.mode == nhnet::OrientMode::Keep && !cloud.has_normals()) {
-    rep.warn("--orient keep: " + a.in + " has no normals; output normals stay unoriented");
+    rep.warn("--orient keep: " + in + " has no normals; output normals stay unoriented");
     orient.mode = nhnet::OrientMode::None;
   }
 
-  // 4. Estimate (exit 4 when too few finite points, 130 when interrupted), then orient.
+  // Estimate (exit 4 when too few finite points, 130 when interrupted), then orient.
   const double est_end = orient.mode == nhnet::OrientMode::Mst ? 0.9 : 1.0;
   opt.run.progress = rep.callback(0.0, est_end);
-  nhnet::EstimateResult res;
-  try {
-    res = nhnet::estimate_normals(cloud.points, opt);
-  } catch (const nhnet::UnprocessableInput& e) {
-    throw nhnet::UnprocessableInput(a.in + ": " + e.what());  // name the file (exit 4)
-  }
+  nhnet::EstimateResult res = nhnet::estimate_normals(cloud.points, opt);
   rep.clear();
   for (const auto& w : res.warnings) rep.warn(w);
-  if (opt.method == nhnet::Method::NhNet && opt.device == "auto" && !a.quiet)
-    std::cerr << "nhnet-cli: NH-Net ran on " << res.device_used << " (--device auto)" << std::endl;
   throw_if_interrupted();
 
   orient.run.progress = rep.callback(est_end, 1.0);
@@ -99,12 +142,14 @@ int run_estimate(const EstimateArgs& a) {
   warn_unoriented(rep, orient, ores);
   throw_if_interrupted();
 
-  // 5. Write (exit 6); write_cloud goes through a temporary file + rename.
+  // Write (exit 6); write_cloud goes through a temporary file + rename.
   cloud.normals = std::move(res.normals);
-  write_output(rep, a.out, cloud, a.ascii);
+  write_output(rep, out, cloud, a.ascii);
   const double seconds = rep.elapsed();
+  o.failed = res.failed;
+  o.seconds = seconds;
 
-  // 6. Summary.
+  // Summary.
   const char* method = nhnet::to_string(opt.method);
   if (!a.quiet && !a.json) {
     char noise[32];
@@ -117,12 +162,12 @@ int run_estimate(const EstimateArgs& a) {
          << orient_summary(orient, ores);
     char secs[32];
     std::snprintf(secs, sizeof secs, "%.2f", seconds);
-    line << ", " << secs << " s, output " << a.out;
+    line << ", " << secs << " s, output " << out;
     std::cerr << line.str() << std::endl;
   }
   if (a.json) {
     std::ostringstream js;
-    js << "{\"input\": " << json_string(a.in) << ", \"output\": " << json_string(a.out)
+    js << "{\"input\": " << json_string(in) << ", \"output\": " << json_string(out)
        << ", \"points\": " << cloud.size() << ", \"failed\": " << res.failed
        << ", \"method\": " << json_string(method) << ", \"k\": " << res.k_used
        << ", \"scales\": [" << join(res.scales_used, ", ") << "]"
@@ -134,6 +179,190 @@ int run_estimate(const EstimateArgs& a) {
        << ", \"seconds\": " << json_number(seconds, 4) << "}";
     std::cout << js.str() << std::endl;
   }
+}
+
+/// run_one naming the file on exit-4 and exit-7 errors.
+void run_one_named(const EstimateArgs& a, const Setup& st, const std::string& in,
+                   const std::string& out, Outcome& o) {
+  naming_file(in, [&] { run_one(a, st, in, out, o); });
+}
+
+/// --report: one JSON object (temporary file + rename, so a reader never sees half of it).
+void write_report(const EstimateArgs& a, const Setup& st, const std::vector<Outcome>& outcomes,
+                  double seconds) {
+  std::ostringstream js;
+  int ok = 0, failed = 0;
+  for (const auto& o : outcomes) {
+    ok += o.status == "ok";
+    failed += o.status == "failed";
+  }
+  js << "{\n  \"nhnet_version\": " << json_string(nhnet::version())
+     << ",\n  \"method\": " << json_string(nhnet::to_string(st.opt.method))
+     << ",\n  \"device\": " << json_string(st.device)
+     << ",\n  \"model\": " << (st.model_path.empty() ? "null" : json_string(st.model_path))
+     << ",\n  \"model_sha256\": "
+     << (st.model_sha256.empty() ? "null" : json_string(st.model_sha256))
+     << ",\n  \"inputs\": " << outcomes.size() << ",\n  \"ok\": " << ok
+     << ",\n  \"failed\": " << failed
+     << ",\n  \"not_run\": " << int(outcomes.size()) - ok - failed
+     << ",\n  \"seconds\": " << json_number(seconds, 4) << ",\n  \"files\": [";
+  for (size_t i = 0; i < outcomes.size(); ++i) {
+    const Outcome& o = outcomes[i];
+    js << (i ? ",\n" : "\n") << "    {\"input\": " << json_string(o.in)
+       << ", \"output\": " << json_string(o.out) << ", \"status\": " << json_string(o.status)
+       << ", \"exit_code\": " << (o.exit_code < 0 ? "null" : std::to_string(o.exit_code))
+       << ", \"error\": " << (o.error.empty() ? "null" : json_string(o.error))
+       << ", \"points\": " << (o.points < 0 ? "null" : std::to_string(o.points))
+       << ", \"invalid\": " << (o.failed < 0 ? "null" : std::to_string(o.failed))
+       << ", \"seconds\": " << json_number(o.seconds, 4) << "}";
+  }
+  js << "\n  ]\n}\n";
+  const std::string tmp = a.report + ".nhnet-tmp";
+  {
+    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
+    f << js.str();
+    f.close();
+    if (!f) {
+      std::remove(tmp.c_str());
+      throw nhnet::OutputError("cannot write the report " + a.report);
+    }
+  }
+  if (std::rename(tmp.c_str(), a.report.c_str()) != 0) {
+    std::remove(tmp.c_str());
+    throw nhnet::OutputError("cannot write the report " + a.report);
+  }
+}
+
+bool cloud_extension(const fs::path& p) {
+  std::string e = p.extension().string();
+  std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  return e == ".ply" || e == ".pcd" || e == ".xyz" || e == ".xyzn" || e == ".txt";
+}
+
+/// The batch's inputs: files as given, directories replaced by their clouds (by extension,
+/// sorted, not recursive); each with its output path in DIR.
+std::vector<Outcome> batch_jobs(const EstimateArgs& a) {
+  std::vector<std::string> inputs;
+  for (const auto& f : a.files) {
+    std::error_code ec;
+    if (fs::is_directory(f, ec)) {
+      std::vector<std::string> found;
+      for (fs::directory_iterator it(f, ec), end; !ec && it != end; it.increment(ec))
+        if (it->is_regular_file(ec) && cloud_extension(it->path())) found.push_back(it->path().string());
+      if (ec) throw nhnet::InputError(f + ": cannot list the directory: " + ec.message());
+      std::sort(found.begin(), found.end());
+      inputs.insert(inputs.end(), found.begin(), found.end());
+    } else {
+      inputs.push_back(f);
+    }
+  }
+  std::vector<Outcome> jobs;
+  for (const auto& in : inputs) {
+    Outcome o;
+    o.in = in;
+    const fs::path p(in);
+    o.out = (fs::path(a.out_dir) / (p.stem().string() + (a.ext.empty() ? p.extension().string()
+                                                                        : "." + a.ext)))
+                .string();
+    jobs.push_back(o);
+  }
+  return jobs;
+}
+
+int run_batch(const EstimateArgs& a, const Setup& st) {
+  Reporter rep(a.quiet);
+  std::vector<Outcome> jobs = batch_jobs(a);
+  if (jobs.empty())
+    throw nhnet::InputError("no input clouds (.ply, .pcd, .xyz, .xyzn, .txt) in " + a.files[0]);
+  std::map<std::string, std::string> claimed;  // output -> the input writing it
+  bool stop = false;
+  for (Outcome& o : jobs) {
+    if (stop || interrupted()) break;
+    try {
+      if (a.ext.empty()) check_output_format(o.out);
+      const auto [it, fresh] = claimed.emplace(o.out, o.in);
+      if (!fresh)
+        throw nhnet::OutputError("cannot write " + o.out + " for " + o.in + ": it is the output of " +
+                                 it->second);
+      run_one_named(a, st, o.in, o.out, o);
+      o.status = "ok";
+      o.exit_code = kOk;
+    } catch (...) {
+      std::string message;
+      o.exit_code = classify_current_exception(message);
+      if (message.find(o.in) == std::string::npos) message = o.in + ": " + message;
+      o.error = one_line(message);
+      const bool cancelled = o.exit_code == kInterrupted || o.exit_code == kTerminated;
+      o.status = cancelled ? "interrupted" : "failed";
+      rep.clear();
+      if (!cancelled) std::cerr << "nhnet-cli: error: " << o.error << std::endl;
+      stop = cancelled || a.fail_fast;
+    }
+  }
+  int ok = 0, failed = 0;
+  std::string failures;
+  for (const auto& o : jobs) {
+    ok += o.status == "ok";
+    if (o.status == "failed") {
+      ++failed;
+      failures += (failures.empty() ? "" : ", ") + o.in + " (exit " + std::to_string(o.exit_code) + ")";
+    }
+  }
+  const int not_run = int(jobs.size()) - ok - failed;
+  if (!a.report.empty()) write_report(a, st, jobs, rep.elapsed());
+  std::cerr << "nhnet-cli: batch: " << jobs.size() << " inputs, " << ok << " ok, " << failed
+            << " failed" << (not_run ? ", " + std::to_string(not_run) + " not run" : std::string())
+            << (failures.empty() ? std::string() : "; failed: " + failures) << std::endl;
+  if (const int sig = interrupted()) {
+    std::cerr << "nhnet-cli: error: interrupted (" << (sig == SIGTERM ? "SIGTERM" : "SIGINT")
+              << "); the " << ok << " outputs written before are complete, the rest were not written"
+              << std::endl;
+    return sig == SIGTERM ? kTerminated : kInterrupted;
+  }
+  return failed > 0 ? kBatch : kOk;
+}
+
+int run_estimate(const EstimateArgs& a) {
+  // 1. Parameters (exit 2).
+  const bool batch = !a.out_dir.empty();
+  if (!batch && a.files.size() != 2)
+    throw nhnet::InvalidOptions("estimate takes IN OUT, or several inputs (files or directories) "
+                                "with -o DIR; got " + std::to_string(a.files.size()) + " paths");
+  if (!batch && (!a.ext.empty() || a.fail_fast))
+    throw nhnet::InvalidOptions("--ext and --fail-fast only apply with -o DIR");
+  Setup st = prepare(a);
+  if (!batch) check_output_format(a.files[1]);
+  if (!a.ext.empty()) check_output_format("x." + a.ext);
+  if (st.opt.method == nhnet::Method::Pca && !st.opt.scales.empty() && !a.quiet)
+    std::cerr << "nhnet-cli: warning: --scales is ignored with --method pca" << std::endl;
+  if (batch) {
+    std::error_code ec;
+    if (!fs::is_directory(a.out_dir, ec))
+      throw nhnet::OutputError("-o " + a.out_dir + ": not an existing directory");
+  }
+  if (!a.report.empty()) check_output("", a.report, a.overwrite);
+
+  // 2. The model (exit 5, 8), before any input is read.
+  load_model(a, st);
+
+  if (batch) return run_batch(a, st);
+  Outcome o;
+  o.in = a.files[0];
+  o.out = a.files[1];
+  try {
+    run_one_named(a, st, o.in, o.out, o);
+    o.status = "ok";
+    o.exit_code = kOk;
+  } catch (...) {
+    if (a.report.empty()) throw;
+    std::string message;
+    o.exit_code = classify_current_exception(message);
+    o.status = o.exit_code == kInterrupted || o.exit_code == kTerminated ? "interrupted" : "failed";
+    o.error = one_line(message);
+    write_report(a, st, {o}, o.seconds);
+    throw;
+  }
+  if (!a.report.empty()) write_report(a, st, {o}, o.seconds);
   return kOk;
 }
 
@@ -143,7 +372,23 @@ Command add_estimate_command(CLI::App& parent) {
   auto args = std::make_shared<EstimateArgs>();
   CLI::App* sub = parent.add_subcommand(
       "estimate", "Estimate unit normals of a point cloud and write the cloud with them");
-  add_in_out(sub, args->in, args->out);
+  sub->add_option("PATHS", args->files,
+                  "IN OUT: input cloud and output cloud (format from the extension: .ply, .pcd, "
+                  ".xyz/.xyzn/.txt; input content is sniffed); with -o DIR: any number of input "
+                  "clouds or directories of clouds")
+      ->required()
+      ->type_name("PATH");
+  sub->add_option("-o,--output-dir", args->out_dir,
+                  "Batch: write each input's result to DIR/<input name> (must exist); one "
+                  "failing input does not stop the others (exit 10 if any failed)")
+      ->type_name("DIR");
+  sub->add_option("--ext", args->ext, "Batch: output extension, e.g. ply (default: the input's)")
+      ->type_name("EXT");
+  sub->add_flag("--fail-fast", args->fail_fast, "Batch: stop at the first failing input");
+  sub->add_option("--report", args->report,
+                  "Write a JSON report: per input status, exit code, error, point and invalid "
+                  "counts, seconds; method, device, model path and SHA-256, version")
+      ->type_name("FILE");
   sub->add_option("-m,--method", args->method, "pca | mfps | nhnet (default: mfps)")->type_name("NAME");
   sub->add_option("--model", args->model,
                   "NH-Net model (TorchScript from nhnet-export; default: the shipped models/nhnet.pt)")
@@ -176,17 +421,12 @@ Command add_estimate_command(CLI::App& parent) {
       "  nhnet-cli estimate scan.ply scan-normals.ply\n"
       "  nhnet-cli estimate scan.xyz out.pcd --method pca --k 30 --threads 4\n"
       "  nhnet-cli estimate noisy.xyz out.xyzn --scales 50,100,150 --json\n"
-      "  nhnet-cli estimate scan.ply out.ply --orient viewpoint 0 0 1.5\n\n"
-      "Exit codes: 0 ok, 2 bad parameter, 3 bad input, 4 too few finite points,\n"
-      "6 cannot write output, 7 out of memory, 130 SIGINT, 143 SIGTERM.\n");
-  return Command{sub, [args] {
-                   try {
-                     return run_estimate(*args);
-                   } catch (const std::bad_alloc&) {  // exit 7, naming the file
-                     throw OutOfMemory(args->in + ": out of memory (the cloud needs more memory "
-                                       "than this process may use; no output written)");
-                   }
-                 }};
+      "  nhnet-cli estimate scan.ply out.ply --orient viewpoint 0 0 1.5\n"
+      "  nhnet-cli estimate scans/ extra.ply -o out/ --ext ply --report report.json\n\n"
+      "Exit codes: 0 ok, 2 bad parameter, 3 bad input, 4 too few finite points, 5 bad model,\n"
+      "6 cannot write output, 7 out of memory, 8 device unavailable, 10 some batch inputs\n"
+      "failed, 130 SIGINT, 143 SIGTERM.\n");
+  return Command{sub, [args] { return run_estimate(*args); }};
 }
 
 }  // namespace nhcli

@@ -20,6 +20,45 @@
 
 namespace nhcli {
 
+int classify_current_exception(std::string& message) {
+  try {
+    throw;
+  } catch (const nhnet::Cancelled&) {
+    const int sig = interrupted();
+    message = std::string("interrupted") +
+              (sig == SIGTERM ? " (SIGTERM)" : sig == SIGINT ? " (SIGINT)" : "") +
+              "; no output written";
+    return sig == SIGTERM ? kTerminated : kInterrupted;
+  } catch (const nhnet::DeviceUnavailable& e) {
+    message = e.what();
+    return kDevice;
+  } catch (const nhnet::InvalidOptions& e) {
+    message = e.what();
+    return kUsage;
+  } catch (const nhnet::ModelError& e) {
+    message = e.what();
+    return kModel;
+  } catch (const nhnet::InputError& e) {
+    message = e.what();
+    return kInput;
+  } catch (const nhnet::UnprocessableInput& e) {
+    message = e.what();
+    return kUnprocessable;
+  } catch (const nhnet::OutputError& e) {
+    message = e.what();
+    return kOutput;
+  } catch (const std::bad_alloc& e) {
+    message = dynamic_cast<const OutOfMemory*>(&e) != nullptr ? e.what() : "out of memory";
+    return kMemory;
+  } catch (const std::exception& e) {
+    message = std::string("internal error: ") + e.what();
+    return kFailure;
+  } catch (...) {
+    message = "internal error: unknown exception";
+    return kFailure;
+  }
+}
+
 // ---- parameters --------------------------------------------------------------------------------
 
 namespace {

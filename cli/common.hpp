@@ -3,6 +3,7 @@
 #pragma once
 
 #include "nhnet/cloud.hpp"
+#include "nhnet/errors.hpp"
 #include "nhnet/orient.hpp"
 #include "nhnet/progress.hpp"
 
@@ -26,8 +27,11 @@ enum ExitCode : int {
   kUsage = 2,          ///< usage or bad parameter
   kInput = 3,          ///< input unreadable or malformed
   kUnprocessable = 4,  ///< input readable but cannot be processed (too few finite points)
+  kModel = 5,          ///< NH-Net model missing, truncated, corrupt or made for another build
   kOutput = 6,         ///< output cannot be written (or refused: exists, same as input, ...)
   kMemory = 7,         ///< out of memory
+  kDevice = 8,         ///< the requested device (--device cuda) is not available
+  kBatch = 10,         ///< batch run: at least one input failed (the others were processed)
   kInterrupted = 130,  ///< SIGINT (128 + 2, the shell's convention)
   kTerminated = 143,   ///< SIGTERM (128 + 15)
 };
@@ -51,6 +55,29 @@ struct Command {
 Command add_estimate_command(CLI::App& parent);
 Command add_eval_command(CLI::App& parent);
 Command add_denoise_command(CLI::App& parent);
+
+/// Inside a catch block: the exit code of the exception being handled and its one-line message
+/// (the mapping of README "Exit codes"; a Cancelled maps to 130 or 143 by the signal received).
+int classify_current_exception(std::string& message);
+
+/// Runs f() (the processing of input IN); an nhnet::UnprocessableInput from it is rethrown with
+/// "IN: " in front and std::bad_alloc as OutOfMemory naming IN, so exit-4 and exit-7 errors name
+/// the file like every other error. Used by every subcommand that processes one cloud.
+template <class F>
+auto naming_file(const std::string& in, F&& f) -> decltype(f()) {
+  try {
+    return f();
+  } catch (const nhnet::UnprocessableInput& e) {
+    const std::string what = e.what();
+    if (what.compare(0, in.size() + 2, in + ": ") == 0) throw;  // named already
+    throw nhnet::UnprocessableInput(in + ": " + what);
+  } catch (const OutOfMemory&) {
+    throw;
+  } catch (const std::bad_alloc&) {
+    throw OutOfMemory(in + ": out of memory (the cloud needs more memory than this process may "
+                      "use; no output written)");
+  }
+}
 
 // ---- parameters --------------------------------------------------------------------------------
 

@@ -1,8 +1,8 @@
 // nhnet-cli: command-line front end of the nhnet core. Parses arguments (CLI11), dispatches to a
 // subcommand and maps every failure to one stderr line and a documented exit code:
 //   0 ok, 1 internal error, 2 usage / bad parameter, 3 unreadable or malformed input,
-//   4 input readable but unprocessable, 6 cannot write output, 7 out of memory, 130 SIGINT,
-//   143 SIGTERM.
+//   4 input readable but unprocessable, 5 bad NH-Net model, 6 cannot write output, 7 out of
+//   memory, 8 device unavailable, 10 batch with failed inputs, 130 SIGINT, 143 SIGTERM.
 #include "common.hpp"
 
 #include "nhnet/errors.hpp"
@@ -24,8 +24,11 @@ const char* kExitCodes =
     "  2    usage error or bad parameter\n"
     "  3    input unreadable or malformed (missing file, directory, garbage, truncated)\n"
     "  4    input readable but unprocessable (too few finite points)\n"
+    "  5    NH-Net model missing, truncated, corrupt or not made for this version\n"
     "  6    output cannot be written (exists without --overwrite, same as input, no directory)\n"
     "  7    out of memory\n"
+    "  8    requested device not available (--device cuda without CUDA)\n"
+    "  10   batch (estimate -o DIR): at least one input failed; the others were written\n"
     "  130  interrupted by SIGINT (Ctrl-C); no output is left behind\n"
     "  143  terminated by SIGTERM; no output is left behind\n";
 
@@ -37,26 +40,10 @@ int fail(int code, const std::string& message) {
 int run_guarded(const std::function<int()>& run) {
   try {
     return run();
-  } catch (const nhnet::Cancelled&) {
-    const int sig = nhcli::interrupted();
-    return fail(sig == SIGTERM ? nhcli::kTerminated : nhcli::kInterrupted, std::string("interrupted") +
-                                         (sig == SIGTERM ? " (SIGTERM)" : sig == SIGINT ? " (SIGINT)" : "") +
-                                         "; no output written");
-  } catch (const nhnet::InvalidOptions& e) {
-    return fail(nhcli::kUsage, e.what());
-  } catch (const nhnet::InputError& e) {
-    return fail(nhcli::kInput, e.what());
-  } catch (const nhnet::UnprocessableInput& e) {
-    return fail(nhcli::kUnprocessable, e.what());
-  } catch (const nhnet::OutputError& e) {
-    return fail(nhcli::kOutput, e.what());
-  } catch (const std::bad_alloc& e) {
-    const bool named = dynamic_cast<const nhcli::OutOfMemory*>(&e) != nullptr;
-    return fail(nhcli::kMemory, named ? e.what() : "out of memory");
-  } catch (const std::exception& e) {
-    return fail(nhcli::kFailure, std::string("internal error: ") + e.what());
   } catch (...) {
-    return fail(nhcli::kFailure, "internal error: unknown exception");
+    std::string message;
+    const int code = nhcli::classify_current_exception(message);
+    return fail(code, message);
   }
 }
 

@@ -53,6 +53,7 @@ DenoiseResult denoise_points(const Points& points, const Normals& normals,
   if (!(options.step > 0)) throw InvalidOptions("denoise: step must be > 0");
   if (options.max_neighbors < 0) throw InvalidOptions("denoise: max_neighbors must be >= 0");
   if (options.run.threads < 0) throw InvalidOptions("denoise: threads must be >= 0");
+  detail::start_threads(options.run.threads);  // before the big allocations
 
   DenoiseResult res;
   res.points = points;

@@ -26,7 +26,7 @@ void compute_descriptors(const Points& points, const Normals& normals, const Ind
   const HeightMaps maps =
       height_maps(points, knn, k, frames, options.map, detail::narrow(run, 0.5, 1), first);
   const Eigen::Index n = knn.rows(), nf = filtered.cols();
-  features.resize(n, nf + maps.cols());
+  detail::resize_fresh(features, n, nf + maps.cols());
   features.leftCols(nf) = frames.rotated.cast<float>();
   features.rightCols(maps.cols()) = maps;
   rotations = std::move(frames.rotations);

@@ -10,6 +10,7 @@
 #include "nhnet/mfps.hpp"
 #include "nhnet/nhnet_model.hpp"
 #include "nhnet/scales.hpp"
+#include "dedupe.hpp"
 #include "parallel.hpp"
 
 #include <algorithm>
@@ -75,31 +76,6 @@ double normalise(Points& pts) {
   return unit;
 }
 
-/// Keeps in `rows` (finite row indices of `points`, ascending) only the first row of every
-/// exact position, in lexicographic (x, y, z) order of the positions: the pipeline then sees
-/// the same points in the same order whatever the input order, so a permuted cloud gets
-/// bit-identical normals (kd-tree ties, summation order and MFPS's per-patch seeds included).
-/// Returns, for every row of `points`, the row of its first copy (itself when unique; -1 for
-/// rows not in `rows`).
-std::vector<int64_t> dedupe_exact(const Points& points, std::vector<int64_t>& rows) {
-  std::vector<int64_t> first(size_t(points.rows()), -1);
-  std::vector<int64_t> order = rows;
-  const auto less = [&](int64_t a, int64_t b) {
-    for (int d = 0; d < 3; ++d)
-      if (points(a, d) != points(b, d)) return points(a, d) < points(b, d);
-    return false;
-  };
-  std::stable_sort(order.begin(), order.end(), less);  // stable: first copy leads its group
-  std::vector<int64_t> kept;
-  for (size_t i = 0; i < order.size(); ++i) {
-    const bool leads = i == 0 || less(order[i - 1], order[i]);
-    first[size_t(order[i])] = leads ? order[i] : first[size_t(order[i - 1])];
-    if (leads) kept.push_back(order[i]);
-  }
-  rows = std::move(kept);
-  return first;
-}
-
 int max_scale(const std::vector<int>& scales) {
   return scales.empty() ? 0 : *std::max_element(scales.begin(), scales.end());
 }
@@ -113,6 +89,7 @@ EstimateResult estimate_normals(const Points& points, const EstimateOptions& opt
     if (s < 4) throw InvalidOptions("every scale must be at least 4, got " + std::to_string(s));
   if (options.run.threads < 0) throw InvalidOptions("threads must be >= 0");
   if (options.mfps_samples < 1) throw InvalidOptions("mfps samples must be >= 1");
+  detail::start_threads(options.run.threads);  // before the big allocations
 
   EstimateResult res;
   const Eigen::Index n = points.rows();
@@ -134,7 +111,7 @@ EstimateResult estimate_normals(const Points& points, const EstimateOptions& opt
   // with duplicated points gets the same normals as the deduplicated cloud. The points are
   // processed in a canonical (sorted) order, which makes the result independent of the input
   // order.
-  const std::vector<int64_t> copies = dedupe_exact(points, finite);
+  const std::vector<int64_t> copies = detail::dedupe_exact(points, finite);
   if (finite.size() < 3)
     throw UnprocessableInput(
         "only " + std::to_string(finite.size()) +

@@ -54,8 +54,8 @@ void Neighbors::knn_all(int k, IndexMatrix& indices, DistanceMatrix* sq_distance
   if (k < 1) throw InvalidOptions("Neighbors::knn_all: k must be >= 1");
   const Eigen::Index n = size();
   const int kk = int(std::min<Eigen::Index>(k, n));
-  indices.resize(n, kk);
-  if (sq_distances) sq_distances->resize(n, kk);
+  detail::resize_fresh(indices, n, kk);  // may hold an earlier table (see resize_fresh)
+  if (sq_distances) detail::resize_fresh(*sq_distances, n, kk);
   detail::Progress progress(run.progress);
   if (run.progress) progress.stage("neighbours", 0, 1);
   detail::parallel_for(n, run.threads, run.progress ? &progress : nullptr, [&](int64_t i) {

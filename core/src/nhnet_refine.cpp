@@ -13,8 +13,12 @@ namespace nhnet {
 EstimateResult estimate_nhnet(const Points& points, const EstimateOptions& options) {
   if (options.nhnet_batch < 1) throw InvalidOptions("nhnet batch must be >= 1");
   // Load first: a missing or mismatched model fails before the long geometry stage.
-  const NhNetModel model(options.model.empty() ? default_model_path() : options.model,
-                         options.device, options.run.threads);
+  std::shared_ptr<const NhNetModel> loaded = options.loaded_model;
+  if (!loaded)
+    loaded = std::make_shared<const NhNetModel>(
+        options.model.empty() ? default_model_path() : options.model, options.device,
+        options.run.threads);
+  const NhNetModel& model = *loaded;
   DescriptorOptions dopt;
   dopt.estimate = options;
   dopt.estimate.method = Method::Mfps;

@@ -6,6 +6,7 @@
 #include "nhnet/estimate.hpp"
 #include "nhnet/neighbors.hpp"
 #include "nhnet/pca.hpp"
+#include "dedupe.hpp"
 #include "parallel.hpp"
 
 #include <algorithm>
@@ -45,10 +46,12 @@ bool valid_normal(const Eigen::RowVector3d& n) {
 /// MST orientation (Hoppe et al. 1992) of the rows `used` of points/normals: Prim's algorithm on
 /// the symmetric k-NN graph, one tree per connected component grown from its highest point, over
 /// the guide normals (OrientOptions::smooth_guide); the signs then go to `normals`.
-void orient_mst(const Points& points, Normals& normals, const std::vector<int64_t>& used,
-                const OrientOptions& options, OrientResult& res) {
+/// Returns for every entry of `used` whether it was oriented.
+std::vector<uint8_t> orient_mst(const Points& points, Normals& normals,
+                                const std::vector<int64_t>& used, const OrientOptions& options,
+                                OrientResult& res) {
   const Eigen::Index m = Eigen::Index(used.size());
-  if (m == 0) return;
+  if (m == 0) return {};
   detail::Progress progress(options.run.progress);
   Points pts(m, 3);
   Normals guide(m, 3);
@@ -184,10 +187,42 @@ void orient_mst(const Points& points, Normals& normals, const std::vector<int64_
 
   // Signs to the caller's normals (only the sign changes, the length stays the caller's); a
   // normal perpendicular to its oriented guide has no sign to take.
+  std::vector<uint8_t> oriented(static_cast<size_t>(m), 0);
   for (Eigen::Index li = 0; li < m; ++li) {
     const int64_t row = used[size_t(li)];
     const double d = normals.row(row).dot(guide.row(li));
     if (!(d != 0)) {
+      ++res.unoriented;
+      continue;
+    }
+    oriented[size_t(li)] = 1;
+    if (d < 0) {
+      normals.row(row) *= -1.0;
+      ++res.flipped;
+    }
+  }
+  return oriented;
+}
+
+/// MST orientation with exact duplicates seen once: k copies of a position would form their
+/// own k-NN component (each copy's neighbours are the other copies) and be oriented apart from
+/// the surface. Only the first copy takes part; every other copy then takes its sign (the
+/// estimator gives all copies the same normal, so they end up identical).
+void orient_mst_deduplicated(const Points& points, Normals& normals,
+                             const std::vector<int64_t>& used, const OrientOptions& options,
+                             OrientResult& res) {
+  std::vector<int64_t> firsts = used;
+  const std::vector<int64_t> first_of = detail::dedupe_exact(points, firsts);
+  std::sort(firsts.begin(), firsts.end());  // input order, as without duplicates
+  const std::vector<uint8_t> oriented = orient_mst(points, normals, firsts, options, res);
+  if (firsts.size() == used.size()) return;
+  std::vector<int64_t> slot(size_t(points.rows()), -1);  // row -> index in firsts
+  for (size_t i = 0; i < firsts.size(); ++i) slot[size_t(firsts[i])] = int64_t(i);
+  for (const int64_t row : used) {
+    const int64_t first = first_of[size_t(row)];
+    if (first == row) continue;
+    const double d = normals.row(row).dot(normals.row(first));
+    if (!oriented[size_t(slot[size_t(first)])] || !(d != 0)) {
       ++res.unoriented;
       continue;
     }
@@ -217,6 +252,7 @@ OrientResult orient_normals(const Points& points, Normals& normals, const Orient
                          std::to_string(reference.rows()) + " for " +
                          std::to_string(points.rows()) + " points)");
   if (options.run.threads < 0) throw InvalidOptions("orient: threads must be >= 0");
+  detail::start_threads(options.run.threads);  // before the big allocations
 
   OrientResult res;
   std::vector<int64_t> used;
@@ -250,7 +286,7 @@ OrientResult orient_normals(const Points& points, Normals& normals, const Orient
       }
       break;
     case OrientMode::Mst:
-      orient_mst(points, normals, used, options, res);
+      orient_mst_deduplicated(points, normals, used, options, res);
       break;
   }
   return res;

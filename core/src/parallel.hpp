@@ -4,11 +4,13 @@
 #include "nhnet/errors.hpp"
 #include "nhnet/progress.hpp"
 
+#include <Eigen/Core>
 #include <omp.h>
 
 #include <algorithm>
 #include <atomic>
 #include <cstdint>
+#include <exception>
 #include <string>
 
 namespace nhnet::detail {
@@ -66,22 +68,54 @@ inline int thread_count(int requested) {
   return requested > 0 ? requested : std::max(1, omp_get_max_threads());
 }
 
+/// Starts the OpenMP thread pool for `threads` workers before any big allocation: libgomp keeps
+/// its threads for later regions, so their stacks are reserved while memory is still free (a
+/// pthread_create failure inside libgomp is fatal and cannot be caught).
+inline void start_threads(int threads) {
+  const int nt = thread_count(threads);
+  if (nt <= 1) return;
+#pragma omp parallel num_threads(nt)
+  { (void)omp_get_thread_num(); }
+}
+
+/// Eigen 3.4's resize() frees the old buffer before allocating the new one and leaves the freed
+/// pointer in place when the allocation throws (std::bad_alloc then ends in a double free when
+/// the matrix is destroyed). Output matrices that may hold data are emptied first with this.
+template <class Matrix>
+void resize_fresh(Matrix& m, Eigen::Index rows, Eigen::Index cols) {
+  if (m.size() != rows * cols) Matrix().swap(m);
+  m.resize(rows, cols);
+}
+
 /// Runs fn(i) for i in [0, n) on `threads` threads (dynamic schedule). Thread 0 (the calling
 /// thread) reports progress; a cancel request stops the remaining iterations and throws
-/// Cancelled after the loop. fn must not throw.
+/// Cancelled after the loop. An exception thrown by fn (std::bad_alloc, ...) cannot cross the
+/// parallel region: the first one is kept, the remaining iterations are skipped and it is
+/// rethrown on the calling thread after the loop.
 template <class Fn>
 void parallel_for(int64_t n, int threads, Progress* progress, Fn&& fn) {
   const int64_t chunk = 256;
   std::atomic<int64_t> done{0};
+  std::atomic<bool> failed{false};
+  std::exception_ptr error;
   const int nt = thread_count(threads);
 #pragma omp parallel for schedule(dynamic, 1) num_threads(nt)
   for (int64_t c = 0; c < (n + chunk - 1) / chunk; ++c) {
-    if (progress && progress->cancelled()) continue;
-    const int64_t b = c * chunk, e = std::min(n, b + chunk);
-    for (int64_t i = b; i < e; ++i) fn(i);
-    const int64_t d = done.fetch_add(e - b) + (e - b);
-    if (progress && omp_get_thread_num() == 0) progress->report(double(d) / double(n));
+    if (failed.load(std::memory_order_relaxed) || (progress && progress->cancelled())) continue;
+    try {
+      const int64_t b = c * chunk, e = std::min(n, b + chunk);
+      for (int64_t i = b; i < e; ++i) fn(i);
+      const int64_t d = done.fetch_add(e - b) + (e - b);
+      if (progress && omp_get_thread_num() == 0) progress->report(double(d) / double(n));
+    } catch (...) {
+#pragma omp critical(nhnet_parallel_for_error)
+      {
+        if (!error) error = std::current_exception();
+      }
+      failed.store(true);
+    }
   }
+  if (error) std::rethrow_exception(error);
   if (progress) {
     progress->throw_if_cancelled();
     progress->report(1.0);

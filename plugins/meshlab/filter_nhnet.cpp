@@ -292,6 +292,8 @@ bool NhnetFilterPlugin::applyFilter(QAction* action, MeshDocument& md,
     fail(QString("bad parameter: ") + e.what());
   } catch (const nhnet::UnprocessableInput& e) {
     fail(QString("cannot process this layer: ") + e.what());
+  } catch (const nhnet::ModelError& e) {
+    fail(QString("bad NH-Net model: ") + e.what());
   } catch (const nhnet::Cancelled&) {
     fail("cancelled; the layer was left unchanged");
   } catch (const std::bad_alloc&) {

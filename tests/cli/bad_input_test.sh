@@ -70,6 +70,26 @@ accepted() {
   no_temp_files
 }
 
+# big_cloud: big.xyz, 400k points (row 25).
+big_cloud() {
+  awk 'BEGIN { srand(17); for (i = 0; i < 400000; i++) printf "%.6f %.6f %.6f\n", rand(), rand(), 0.001 * rand() }' >big.xyz
+}
+
+# oom_refused LIMIT_KB ARGS...: `estimate big.xyz out.ply ARGS` under `ulimit -v LIMIT_KB` is
+# exit 7 with one error line naming big.xyz, no output and no temporary file.
+oom_refused() {
+  local limit=$1
+  shift
+  set +e
+  (ulimit -v "$limit" && exec timeout 120 "$CLI" estimate big.xyz out.ply "$@") >stdout.txt 2>stderr.txt
+  RC=$?
+  set -e
+  [[ $RC == 7 ]] || fail "out of memory (ulimit -v $limit $*) exited $RC, expected 7"
+  one_error_line big.xyz "out of memory"
+  no_file out.ply
+  no_temp_files
+}
+
 PLY_XYZ='property float x\nproperty float y\nproperty float z\n'
 
 
@@ -354,12 +374,24 @@ case_row21_identical_and_duplicated_points() {
   refused 4 same.xyz "only 1 distinct finite points"
   gen_sphere 300 11 uniq.xyz
   for ((i = 0; i < 20; i++)); do cat uniq.xyz; done >dup20.xyz
-  # --orient none: the estimate is under test; MST over 20 identical copies per point sees 300
-  # separate parts, each with its own sign.
-  accepted uniq.xyz uniq.xyzn --method pca --k 16 --orient none
-  accepted dup20.xyz dup20.xyzn --method pca --k 16 --orient none
+  # Default MST orientation included: it sees each position once (before, 20 copies per point
+  # made 300 separate k-NN parts, each with its own sign), so every copy gets the signed normal
+  # of the deduplicated cloud, byte for byte.
+  accepted uniq.xyz uniq.xyzn --method pca --k 16
+  grep -q "orient mst (1 part, 0 completed, 0 unoriented" stderr.txt || fail "uniq: $(cat stderr.txt)"
+  accepted dup20.xyz dup20.xyzn --method pca --k 16
   grep -q "5700 exact duplicate points" stderr.txt || fail "no duplicate warning"
-  head -n 300 dup20.xyzn | cmp -s - uniq.xyzn || fail "duplicates changed the normals"
+  grep -q "orient mst (1 part, 0 completed, 0 unoriented" stderr.txt || fail "dup20: $(cat stderr.txt)"
+  local i
+  for ((i = 0; i < 20; i++)); do
+    sed -n "$((300 * i + 1)),$((300 * i + 300))p" dup20.xyzn | cmp -s - uniq.xyzn \
+      || fail "copy $i of the duplicated cloud differs from the deduplicated cloud (signs included)"
+  done
+  # Shuffled copies (not next to each other) too.
+  awk 'BEGIN { srand(5) } { print rand(), $0 }' dup20.xyz | sort -k1,1g | cut -d' ' -f2- >shuf.xyz
+  accepted shuf.xyz shuf.xyzn --method pca --k 16
+  sort uniq.xyzn >u.sorted
+  sort -u shuf.xyzn | cmp -s - u.sorted || fail "shuffled duplicates: normals or signs differ"
 }
 
 case_row22_line_plane_close_planes() {
@@ -393,16 +425,222 @@ case_row23_huge_and_mixed_magnitudes() {
 # exit 7 naming the file, no output, no temp file, never a crash. Not run by
 # scripts/sanitize.sh: ASan's operator new aborts instead of throwing std::bad_alloc.
 case_row25_out_of_memory() {
-  awk 'BEGIN { srand(17); for (i = 0; i < 400000; i++) printf "%.6f %.6f %.6f\n", rand(), rand(), 0.001 * rand() }' >big.xyz
-  set +e
+  big_cloud
   # 700 MB of address space: nhnet-cli linked with libtorch needs ~550-600 MB just to load
   # (measured: --version fails at 500 MB, runs at 600 MB); the 400k-point estimate needs more.
-  (ulimit -v 700000 && exec timeout 60 "$CLI" estimate big.xyz out.ply) >stdout.txt 2>stderr.txt
-  RC=$?
-  set -e
-  [[ $RC == 7 ]] || fail "out of memory exited $RC, expected 7"
-  one_error_line big.xyz "out of memory"
+  oom_refused 700000
+}
+
+# Row 25 with worker threads: at 900 MB the 400k-point estimate fails in its second neighbour
+# search, where Eigen's resize() used to free the probe's table and leave the freed pointer
+# behind (double free: SIGSEGV, exit 139, with 2 threads); a std::bad_alloc inside an OpenMP
+# region ends in std::terminate unless it is carried out of the region. 1, 2 and 4 threads:
+# exit 7 naming the file, no output, no temp file.
+case_row25_out_of_memory_threads() {
+  big_cloud
+  local t
+  for t in 1 2 4; do oom_refused 900000 --threads $t; done
+}
+
+# Model file faults (issue 9 item 3): a missing, empty, truncated, corrupt or mismatched model
+# (tests/data/nhnet_tiny_v0.pt: descriptor version 0), or a directory, is exit 5 with one error
+# line naming the model file and the problem, before the input is read (the input here does not
+# exist: reading it first would be exit 3). --device cuda without CUDA is exit 8.
+case_model_faults() {
+  local tiny=$SRC/tests/data/nhnet_tiny.pt
+  local size
+  size=$(stat -c %s "$tiny")
+  : >empty.pt
+  head -c $((size / 2)) "$tiny" >half.pt
+  head -c $((size - 100)) "$tiny" >cut.pt
+  head -c 30000 /dev/urandom >random.pt
+  { head -c 20000 "$tiny"; head -c 5000 /dev/zero; tail -c +25001 "$tiny"; } >zeroed.pt
+  mkdir model-dir.pt
+  local m
+  for m in missing.pt:"no NH-Net model" empty.pt:"cannot load" half.pt:"cannot load" \
+    cut.pt:"cannot load" random.pt:"cannot load" zeroed.pt: model-dir.pt:"cannot load" \
+    "$SRC/tests/data/nhnet_tiny_v0.pt":descriptor_version; do
+    local path=${m%%:*} what=${m#*:}
+    for input in no-such-input.xyz; do
+      rm -f out.ply
+      limited estimate "$input" out.ply --method nhnet --model "$path"
+      [[ $RC == 5 ]] || fail "model $path exited $RC, expected 5"
+      one_error_line "$path" "$what"
+      no_file out.ply
+      no_temp_files
+    done
+  done
+  gen_sphere 500 21 in.xyz
+  limited estimate in.xyz out.ply --method nhnet --model "$tiny" --device cuda
+  [[ $RC == 8 ]] || fail "--device cuda without CUDA exited $RC, expected 8"
+  one_error_line "--device cuda" "no CUDA"
   no_file out.ply
+  limited estimate in.xyz out.ply --method nhnet --model "$tiny"
+  [[ $RC == 0 ]] || fail "the tiny model exited $RC"
+  grep -q '^nhnet-cli: NH-Net runs on cpu (--device auto)$' stderr.txt \
+    || fail "--device auto does not say which device: $(cat stderr.txt)"
+}
+
+# Batch runs (issue 9 item 4): three good clouds, a missing file, a garbage file and a 2-point
+# cloud, as files and as a directory: the good ones are written, each bad one prints its error
+# line, a summary names the failures, exit 10; --report records every input; --fail-fast stops
+# at the first failure and reports the rest as skipped.
+case_batch_runs() {
+  mkdir in out out2 out3
+  gen_sphere 800 31 in/a.xyz
+  gen_sphere 800 32 in/b.xyz
+  gen_sphere 800 33 c.xyz
+  printf 'this is not a cloud\n' >in/garbage.xyz
+  printf '0 0 0\n1 1 1\n' >in/two.xyz
+  echo "not a cloud either" >in/notes.md  # not a cloud extension: not taken from the directory
+  limited estimate in c.xyz missing.xyz -o out --report report.json --threads 2
+  [[ $RC == 10 ]] || fail "batch with bad inputs exited $RC, expected 10"
+  local f
+  for f in a b c; do
+    [[ $(awk 'NF == 6' "out/$f.xyz" | wc -l) == 800 ]] || fail "out/$f.xyz is not 800 points with normals"
+  done
+  no_file out/garbage.xyz
+  no_file out/two.xyz
+  no_file out/notes.md
+  no_temp_files out
+  [[ $(grep -c '^nhnet-cli: error: ' stderr.txt) == 3 ]] || fail "expected 3 error lines: $(cat stderr.txt)"
+  grep -q '^nhnet-cli: error: .*in/garbage.xyz' stderr.txt || fail "garbage.xyz not named"
+  grep -q '^nhnet-cli: error: in/two.xyz: only 2 finite points' stderr.txt || fail "two.xyz not named"
+  grep -q '^nhnet-cli: error: .*missing.xyz.*No such file' stderr.txt || fail "missing.xyz not named"
+  tail -n 1 stderr.txt | grep -q '^nhnet-cli: batch: 6 inputs, 3 ok, 3 failed; failed: in/garbage.xyz (exit 3), in/two.xyz (exit 4), missing.xyz (exit 3)$' \
+    || fail "bad summary line: $(tail -n 1 stderr.txt)"
+  "$PY" - report.json <<'PYEOF' || fail "bad report: $(cat report.json)"
+import json, sys
+r = json.load(open(sys.argv[1]))
+assert r["inputs"] == 6 and r["ok"] == 3 and r["failed"] == 3 and r["not_run"] == 0, r
+assert r["method"] == "mfps" and r["device"] == "-" and r["model"] is None and r["nhnet_version"]
+by = {f["input"]: f for f in r["files"]}
+assert [f["input"] for f in r["files"]] == ["in/a.xyz", "in/b.xyz", "in/garbage.xyz", "in/two.xyz", "c.xyz", "missing.xyz"], by
+for name in ("in/a.xyz", "in/b.xyz", "c.xyz"):
+    f = by[name]
+    assert f["status"] == "ok" and f["exit_code"] == 0 and f["points"] == 800 and f["invalid"] == 0, f
+    assert f["error"] is None and f["seconds"] > 0, f
+assert by["in/two.xyz"]["exit_code"] == 4 and by["in/two.xyz"]["points"] == 2, by["in/two.xyz"]
+assert by["in/garbage.xyz"]["exit_code"] == 3 and by["in/garbage.xyz"]["status"] == "failed"
+assert "No such file" in by["missing.xyz"]["error"] and by["missing.xyz"]["points"] is None
+PYEOF
+  # Existing outputs without --overwrite are per-file failures too; --fail-fast stops there.
+  limited estimate in/a.xyz in/b.xyz c.xyz -o out --fail-fast --report report2.json
+  [[ $RC == 10 ]] || fail "--fail-fast exited $RC, expected 10"
+  [[ $(grep -c '^nhnet-cli: error: ' stderr.txt) == 1 ]] || fail "expected 1 error line: $(cat stderr.txt)"
+  grep -q '^nhnet-cli: error: in/a.xyz: out/a.xyz already exists' stderr.txt || fail "no 'already exists' error"
+  tail -n 1 stderr.txt | grep -q '3 inputs, 0 ok, 1 failed, 2 not run' || fail "bad summary: $(tail -n 1 stderr.txt)"
+  "$PY" -c 'import json, sys; r = json.load(open(sys.argv[1])); assert [f["status"] for f in r["files"]] == ["failed", "skipped", "skipped"], r' report2.json \
+    || fail "bad --fail-fast report: $(cat report2.json)"
+  # All good, NH-Net: exit 0, model loaded once, its SHA-256 and device in the report; --ext.
+  local tiny=$SRC/tests/data/nhnet_tiny.pt
+  limited estimate in/a.xyz c.xyz -o out2 --ext ply --method nhnet --model "$tiny" --report r3.json
+  [[ $RC == 0 ]] || fail "all-good nhnet batch exited $RC"
+  [[ -s out2/a.ply && -s out2/c.ply ]] || fail "--ext ply outputs missing"
+  [[ $(grep -c 'NH-Net runs on' stderr.txt) == 1 ]] || fail "model loaded more than once?"
+  local sha
+  sha=$(sha256sum "$tiny" | cut -d' ' -f1)
+  "$PY" -c 'import json, sys; r = json.load(open(sys.argv[1])); assert r["model_sha256"] == sys.argv[2] and r["device"] == "cpu" and r["ok"] == 2, r' r3.json "$sha" \
+    || fail "bad nhnet report: $(cat r3.json)"
+  # A bad model stops the batch before any input is read (exit 5); usage errors are exit 2.
+  limited estimate in -o out3 --method nhnet --model missing.pt
+  [[ $RC == 5 ]] || fail "batch with a missing model exited $RC, expected 5"
+  [[ -z $(ls out3) ]] || fail "out3 is not empty"
+  limited estimate in/a.xyz in/b.xyz c.xyz
+  [[ $RC == 2 ]] || fail "three paths without -o exited $RC, expected 2"
+  only_error_line "-o DIR"
+  limited estimate in/a.xyz -o no-such-dir
+  [[ $RC == 6 ]] || fail "-o missing dir exited $RC, expected 6"
+  only_error_line "no-such-dir"
+}
+
+# SIGTERM / SIGINT during a batch: the outputs completed before stay intact, the interrupted one
+# and the rest are not written, no temporary file is left, the report says so, exit 143 / 130.
+case_batch_interrupt() {
+  mkdir out
+  gen_sphere 1000 41 a.xyz
+  gen_sphere 1000 42 b.xyz
+  gen_sphere 300000 43 big.xyz
+  gen_sphere 1000 44 z.xyz
+  local sig
+  for sig in TERM INT; do
+    rm -f out/* report.json
+    if [[ $sig == INT ]] && sigint_ignored; then
+      echo "SIGINT is ignored in this environment; SIGINT part skipped"
+      continue
+    fi
+    set -m
+    "$CLI" estimate a.xyz b.xyz big.xyz z.xyz -o out --threads 1 --report report.json \
+      >stdout.txt 2>stderr.txt &
+    local pid=$!
+    set +m
+    local i
+    for ((i = 0; i < 3000; i++)); do
+      [[ -e out/b.xyz ]] && break
+      sleep 0.01
+    done
+    [[ -e out/b.xyz ]] || { kill -KILL "$pid" 2>/dev/null || true; fail "out/b.xyz never written"; }
+    sleep 0.3
+    kill -"$sig" "$pid"
+    set +e
+    wait "$pid"
+    RC=$?
+    set -e
+    local want=$([[ $sig == INT ]] && echo 130 || echo 143)
+    [[ $RC == "$want" ]] || fail "SIG$sig during a batch: exit $RC, expected $want"
+    one_error_line interrupted
+    local f
+    for f in a b; do
+      [[ $(awk 'NF == 6' "out/$f.xyz" | wc -l) == 1000 ]] || fail "out/$f.xyz damaged"
+    done
+    no_file out/big.xyz
+    no_file out/z.xyz
+    no_temp_files out
+    no_temp_files
+    "$PY" -c 'import json, sys; r = json.load(open(sys.argv[1])); assert [f["status"] for f in r["files"]] == ["ok", "ok", "interrupted", "skipped"], r' report.json \
+      || fail "bad report after SIG$sig: $(cat report.json)"
+  done
+}
+
+# Row 24: a far isolated outlier and two disconnected spheres. The outlier gets a normal from
+# its (expanded) k-neighbourhood and disturbs nobody: the other points' normals are those of the
+# cloud without it (1e-4 degree: only the recentring in double differs); orientation runs per
+# connected part, reports the part count, and turns each sphere outward.
+case_row24_far_outlier_disconnected_components() {
+  gen_sphere 2000 24 s1.xyz
+  awk '{ printf "%.9g %.9g %.9g\n", $1 + 10, $2, $3 }' s1.xyz >s2.xyz
+  cat s1.xyz s2.xyz >two.xyz
+  { cat two.xyz; echo "1000 1000 1000"; } >outlier.xyz
+  accepted two.xyz two.xyzn --method pca --k 16
+  grep -q "orient mst (2 parts, 0 completed, 0 unoriented" stderr.txt || fail "two spheres: $(cat stderr.txt)"
+  accepted outlier.xyz outlier.xyzn --method pca --k 16
+  grep -q "4001 points, 0 failed" stderr.txt || fail "the outlier failed or disturbed: $(cat stderr.txt)"
+  # CGAL seeds a part's tree at its highest point (here the outlier) and leaves the sphere it
+  # cannot reach by its own k-NN graph unoriented; the completion over the symmetric k-NN graph
+  # orients it ("2000 completed"), none is left unoriented.
+  grep -Eq "orient mst \(2 parts, [0-9]+ completed, 0 unoriented" stderr.txt || fail "outlier: $(cat stderr.txt)"
+  head -n 4000 outlier.xyzn >rest.xyzn
+  expect 0 eval rest.xyzn two.xyzn
+  approx "$(eval_value mean)" 0 1e-4
+  approx "$(eval_value rms)" 0 1e-4
+  # Outward on both spheres (centres 0 and 10 on x): (p - c) . n > 0 for every point.
+  awk 'NR <= 4000 { c = NR <= 2000 ? 0 : 10; if (($1 - c) * $4 + $2 * $5 + $3 * $6 <= 0) bad++ }
+       END { exit bad > 0 }' outlier.xyzn || fail "a sphere is not oriented outward"
+}
+
+# denoise names the file on exit 4 like estimate (naming_file in cli/common): too few points
+# for the estimate, and no point with a valid normal with --normals-from input.
+case_denoise_unprocessable_names_the_file() {
+  printf '0 0 0\n1 1 1\n' >two.xyz
+  limited denoise two.xyz out.xyz
+  [[ $RC == 4 ]] || fail "denoise of 2 points exited $RC, expected 4"
+  one_error_line "two.xyz: only 2 finite points"
+  no_file out.xyz
+  printf '0 0 0 nan nan nan\n1 0 0 nan nan nan\n0 1 0 nan nan nan\n' >nonormal.xyzn
+  limited denoise nonormal.xyzn out.xyzn --normals-from input
+  [[ $RC == 4 ]] || fail "denoise without valid normals exited $RC, expected 4"
+  one_error_line "nonormal.xyzn: "
+  no_file out.xyzn
   no_temp_files
 }
 

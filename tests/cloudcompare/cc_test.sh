@@ -192,6 +192,21 @@ case_bad_input() {
   [[ ! -e out.ply ]] || fail "out.ply written despite the error"
 }
 
+# A failing NH-Net model (garbage bytes, or missing): exit 1 with the model file named in the
+# log, CloudCompare not crashed, nothing saved.
+case_bad_model() {
+  head -n 2000 "$SAMPLE" >small.xyz
+  head -c 4096 /dev/urandom >bad_model.pt
+  cc -O small.xyz -NHNET_NORMALS -METHOD nhnet -MODEL bad_model.pt -SAVE_CLOUDS FILE out.ply
+  expect_rc 1
+  log_has "cannot load NH-Net model 'bad_model.pt'"
+  [[ ! -e out.ply ]] || fail "out.ply written despite the bad model"
+  cc -O small.xyz -NHNET_NORMALS -METHOD nhnet -MODEL missing.pt -SAVE_CLOUDS FILE out.ply
+  expect_rc 1
+  log_has "no NH-Net model at 'missing.pt'"
+  [[ ! -e out.ply ]] || fail "out.ply written despite the missing model"
+}
+
 # Normal-guided denoise on a noisy unit sphere: the mean distance to the sphere drops. Without
 # the core's denoiser the command must refuse cleanly (exit 1, says it is not in this build).
 case_denoise() {

@@ -6,6 +6,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 using namespace nhnet;
@@ -55,4 +57,27 @@ TEST(Neighbors, RadiusQuery) {
   int brute = 0;
   for (int j = 0; j < 3000; ++j) brute += f.points.row(j).squaredNorm() < 0.01;
   EXPECT_EQ(int(out.size()), brute);
+}
+
+// An exception thrown inside a parallel loop (here by the progress callback, which thread 0
+// calls from inside the OpenMP region; std::bad_alloc from a worker takes the same path) is
+// carried out of the region and rethrown on the caller, never std::terminate; the output
+// table stays a valid (destructible, reusable) matrix.
+TEST(Neighbors, ExceptionInsideParallelLoopReachesTheCaller) {
+  const auto f = fixtures::sphere(20000, 5);
+  Neighbors tree(f.points);
+  IndexMatrix idx;
+  tree.knn_all(4, idx, nullptr);  // non-empty before the failing call
+  for (int threads : {1, 2, 4}) {
+    RunContext run;
+    run.threads = threads;
+    run.progress = [](double fraction, const std::string&) -> bool {
+      if (fraction > 0 && fraction < 1) throw std::runtime_error("callback failed");
+      return true;
+    };
+    EXPECT_THROW(tree.knn_all(12, idx, nullptr, run), std::runtime_error) << threads;
+  }
+  tree.knn_all(6, idx, nullptr);
+  EXPECT_EQ(idx.rows(), 20000);
+  EXPECT_EQ(idx.cols(), 6);
 }

@@ -10,8 +10,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <iterator>
 #include <string>
 #include <vector>
 
@@ -99,13 +101,40 @@ TEST(NhNetModel, RefusesMismatchAndMissingCuda) {
   try {
     NhNetModel m(kData + "nhnet_tiny_v0.pt", "cpu", 1);
     FAIL() << "a model for descriptor version 0 was accepted";
-  } catch (const InvalidOptions& e) {
+  } catch (const ModelError& e) {
     EXPECT_NE(std::string(e.what()).find("descriptor_version"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("nhnet_tiny_v0.pt"), std::string::npos) << e.what();
   }
-  EXPECT_THROW(NhNetModel(kData + "does-not-exist.pt", "cpu", 1), InputError);
+  EXPECT_THROW(NhNetModel(kData + "does-not-exist.pt", "cpu", 1), ModelError);
   EXPECT_THROW(NhNetModel(kData + "nhnet_tiny.pt", "gpu", 1), InvalidOptions);
   // Debian's libtorch is CPU-only; on a CUDA build with a GPU this line would load instead.
-  EXPECT_THROW(NhNetModel(kData + "nhnet_tiny.pt", "cuda", 1), InvalidOptions);
+  EXPECT_THROW(NhNetModel(kData + "nhnet_tiny.pt", "cuda", 1), DeviceUnavailable);
+}
+
+// Truncated (every cut of the archive tried at a few offsets), corrupt (garbage, a directory)
+// and empty model files: always a ModelError naming the file, never a crash.
+TEST(NhNetModel, RefusesTruncatedAndCorruptFiles) {
+  std::ifstream in(kData + "nhnet_tiny.pt", std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  ASSERT_GT(bytes.size(), 1000u);
+  const std::string path = ::testing::TempDir() + "nhnet_bad_model.pt";
+  auto refused = [&](const std::string& content, const std::string& what) {
+    std::ofstream(path, std::ios::binary | std::ios::trunc) << content;
+    try {
+      NhNetModel m(path, "cpu", 1);
+      ADD_FAILURE() << what << " was accepted";
+    } catch (const ModelError& e) {
+      EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << what << ": " << e.what();
+    }
+  };
+  for (double f : {0.0, 0.1, 0.5, 0.9, 0.999})
+    refused(bytes.substr(0, size_t(f * double(bytes.size()))), "a cut at " + std::to_string(f));
+  refused(std::string(4096, '\x5a'), "4 KiB of garbage");
+  std::string flipped = bytes;  // the zip's central directory (the archive's tail) garbled
+  for (size_t i = flipped.size() - 200; i < flipped.size(); ++i) flipped[i] = char(~flipped[i]);
+  refused(flipped, "a garbled central directory");
+  EXPECT_THROW(NhNetModel(kData, "cpu", 1), ModelError);  // a directory
+  std::remove(path.c_str());
 }
 
 TEST(NhNetModel, EstimateWithModelGivesUnitNormals) {

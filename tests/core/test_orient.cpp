@@ -233,3 +233,23 @@ TEST(Orient, MstCanBeCancelled) {
   o.run.progress = [](double, const std::string&) { return false; };
   EXPECT_THROW(orient_normals(f.points, n, o), Cancelled);
 }
+
+// Exact duplicates: MST orientation sees each position once (10 copies per point would make
+// each copy group its own k-NN part), so every copy gets the signed normal of the deduplicated
+// cloud, bit for bit, and nothing is left unoriented.
+TEST(Orient, MstDuplicatesSameAsDeduplicated) {
+  const auto f = fixtures::sphere(500, 61);
+  const Eigen::Index n = f.points.rows();
+  Points dup(10 * n, 3);
+  for (int c = 0; c < 10; ++c) dup.middleRows(c * n, n) = f.points;
+  Normals once = estimate_normals(f.points).normals;
+  Normals many = estimate_normals(dup).normals;
+  const OrientResult r1 = orient_normals(f.points, once, OrientOptions{});
+  const OrientResult r10 = orient_normals(dup, many, OrientOptions{});
+  EXPECT_EQ(r1.components, 1);
+  EXPECT_EQ(r10.components, 1);
+  EXPECT_EQ(r10.unoriented, 0);
+  for (int c = 0; c < 10; ++c)
+    for (Eigen::Index i = 0; i < n; ++i)
+      ASSERT_EQ(many.row(c * n + i), once.row(i)) << "copy " << c << " of point " << i;
+}

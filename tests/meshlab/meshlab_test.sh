@@ -41,7 +41,7 @@ estimate_mlx() {
    <Param type="RichInt" name="mst_k" value="18"/>
    <Param type="RichInt" name="threads" value="0"/>
    <Param type="RichInt" name="seed" value="1"/>
-   <Param type="RichString" name="model" value=""/>
+   <Param type="RichString" name="model" value="${5:-}"/>
   </filter>
 MLX
 }
@@ -226,6 +226,11 @@ expect_error "method out of range" "NH-Net: bad parameter: parameter 'method': c
 printf 'ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 0\n1 0 0\n' >two.ply
 expect_error "two points" "NH-Net: cannot process this layer: only 2 finite points" \
   -i two.ply -s est.mlx
+# A failing model (garbage bytes): the log names the file, MeshLab exits cleanly, no output.
+head -c 4096 /dev/urandom >bad_model.pt
+estimate_mlx 2 0 auto 3 "$T/bad_model.pt" | script >bad_model.mlx
+expect_error "bad NH-Net model" "NH-Net: bad NH-Net model: cannot load NH-Net model '.*bad_model.pt'" \
+  -i in.ply -s bad_model.mlx
 denoise_mlx 0 | script >denoise_current.mlx
 expect_error "denoise without normals" "NH-Net: cannot process this layer: the vertices have no normals" \
   -i cube.ply -s denoise_current.mlx

@@ -7,10 +7,13 @@
 #include "nhnet/types.hpp"
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
 namespace nhnet {
+
+class NhNetModel;
 
 enum class Method {
   Pca,   ///< plain PCA over the k nearest neighbours
@@ -50,6 +53,9 @@ struct EstimateOptions {
   std::string model;
   /// NH-Net device: "auto" (CUDA if available, else CPU), "cpu" or "cuda".
   std::string device = "auto";
+  /// NH-Net: an already loaded model (nhnet_model.hpp); when set, `model` and `device` are not
+  /// used. Lets a front end check the model before reading any input and reuse it across files.
+  std::shared_ptr<const NhNetModel> loaded_model;
   /// NH-Net block size: points whose descriptors are computed and run through the model at once.
   int nhnet_batch = 4096;
   /// Threads (0 = all cores) and progress/cancel callback.

@@ -30,6 +30,14 @@ namespace {
 
 bool file_exists(const std::string& p) { return !p.empty() && std::ifstream(p).good(); }
 
+/// The first line of a libtorch error (its message), without the C++ stack trace after it.
+std::string torch_message(const std::exception& e) {
+  std::string m = e.what();
+  for (const char* cut : {"\n", " Exception raised from "})
+    if (const size_t p = m.find(cut); p != std::string::npos) m.resize(p);
+  return m.substr(0, 300);
+}
+
 /// The raw JSON text of `key`'s value in a flat-ish JSON object (numbers, strings, arrays of
 /// numbers), as json.dumps writes it; empty if absent.
 std::string json_value(const std::string& json, const std::string& key) {
@@ -70,7 +78,7 @@ void check_numbers(const std::string& meta, const std::string& key, const std::v
   if (!same) {
     std::ostringstream w;
     for (double v : want) w << v << ' ';
-    throw InvalidOptions("model " + path + " was trained with " + key + " = " +
+    throw ModelError("model " + path + " was trained with " + key + " = " +
                          json_value(meta, key) + " but this nhnet computes " + w.str() +
                          "; retrain it (nhnet-train) or use a model made for this version");
   }
@@ -78,7 +86,7 @@ void check_numbers(const std::string& meta, const std::string& key, const std::v
 
 void check_metadata(const std::string& meta, const std::string& path) {
   if (json_value(meta, "format") != "nhnet-model")
-    throw InvalidOptions("model " + path + " has no nhnet metadata (nhnet.json); export it with "
+    throw ModelError("model " + path + " has no nhnet metadata (nhnet.json); export it with "
                          "nhnet-export");
   const DescriptorOptions d;
   check_numbers(meta, "descriptor_version", {double(kDescriptorVersion)}, path);
@@ -88,7 +96,7 @@ void check_metadata(const std::string& meta, const std::string& path) {
   check_numbers(meta, "sigma_r", d.filter.sigma_r, path);
   check_numbers(meta, "neighborhood_factor", {d.neighborhood_factor}, path);
   if (json_value(meta, "height_normalisation") != kHeightNormalisation)
-    throw InvalidOptions("model " + path + " expects height normalisation '" +
+    throw ModelError("model " + path + " expects height normalisation '" +
                          json_value(meta, "height_normalisation") + "' but this nhnet computes '" +
                          kHeightNormalisation + "'; retrain it (nhnet-train)");
 }
@@ -117,24 +125,42 @@ NhNetModel::NhNetModel(const std::string& path, const std::string& device, int t
   if (threads < 0) throw InvalidOptions("threads must be >= 0");
   const bool cuda = torch::cuda::is_available();
   if (device == "cuda" && !cuda)
-    throw InvalidOptions("--device cuda: the linked libtorch has no CUDA support or no GPU is "
+    throw DeviceUnavailable("--device cuda: the linked libtorch has no CUDA support or no GPU is "
                          "visible; use --device cpu (or auto)");
   impl_->device = (device == "cuda" || (device == "auto" && cuda)) ? "cuda" : "cpu";
   impl_->dev = impl_->device == "cuda" ? torch::Device(torch::kCUDA) : torch::Device(torch::kCPU);
   if (!file_exists(path))
-    throw InputError("no NH-Net model at '" + path + "': pass --model PATH (train one with "
+    throw ModelError("no NH-Net model at '" + path + "': pass --model PATH (train one with "
                      "nhnet-train, see training/README.md) or use --method mfps");
   torch::jit::ExtraFilesMap extra{{"nhnet.json", ""}};
   try {
     impl_->module = torch::jit::load(path, impl_->dev, extra);
   } catch (const std::exception& e) {
-    throw InputError("cannot load NH-Net model '" + path + "' (not a TorchScript archive?): " +
-                     std::string(e.what()).substr(0, 300));
+    throw ModelError("cannot load NH-Net model '" + path + "' (truncated, corrupt or not a "
+                     "TorchScript archive): " +
+                     torch_message(e));
   }
   impl_->meta = extra["nhnet.json"];
   check_metadata(impl_->meta, path);
   impl_->module.eval();
   at::set_num_threads(threads > 0 ? threads : std::max(1, omp_get_max_threads()));
+  // A test forward pass on two zero descriptors: a model that loads but is not a B x D -> B x 3
+  // network (or breaks on this device) is refused here, before any input is read.
+  const int64_t dsize = descriptor_size(DescriptorOptions{});
+  try {
+    torch::InferenceMode guard;
+    const torch::Tensor y =
+        impl_->module.forward({torch::zeros({2, dsize}, torch::kFloat32).to(impl_->dev)}).toTensor();
+    if (y.dim() != 2 || y.size(0) != 2 || y.size(1) != 3)
+      throw ModelError("model " + path + " maps 2 x " + std::to_string(dsize) +
+                       " descriptors to a tensor of shape " + c10::str(y.sizes()) +
+                       ", not 2 x 3; export it with nhnet-export");
+  } catch (const ModelError&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw ModelError("model " + path + " fails on " + std::to_string(dsize) +
+                     "-value descriptors: " + torch_message(e));
+  }
 }
 
 NhNetModel::~NhNetModel() = default;
@@ -165,7 +191,7 @@ Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor> NhNetModel::infer(
         torch::from_blob(buf.data(), {int64_t(e - b), int64_t(d)}, torch::kFloat32).to(impl_->dev);
     torch::Tensor y = impl_->module.forward({x}).toTensor().to(torch::kCPU).contiguous();
     if (y.dim() != 2 || y.size(0) != int64_t(e - b) || y.size(1) != 3)
-      throw InvalidOptions("the NH-Net model returned a tensor of the wrong shape (expected B x 3)");
+      throw ModelError("the NH-Net model returned a tensor of the wrong shape (expected B x 3)");
     const float* p = y.data_ptr<float>();
     for (size_t r = b; r < e; ++r)
       for (int c = 0; c < 3; ++c) out(rows[r], c) = p[(r - b) * 3 + size_t(c)];
