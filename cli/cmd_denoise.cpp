@@ -31,24 +31,10 @@ namespace {
 /// estimator is one more entry here.
 const std::vector<std::string> kNormalSources = {"nhnet", "mfps", "pca", "input"};
 
-/// The default source: nhnet when it can run, else mfps; `why` says why nhnet could not.
-std::string default_source(std::string& why) {
-  if (!nhnet::nhnet_available()) {
-    why = "this build has no libtorch";
-    return kNormalSources[1];
-  }
-  const std::string model = nhnet::default_model_path();
-  if (model.empty() || !std::ifstream(model).good()) {
-    why = "the NH-Net model " + (model.empty() ? std::string("file") : model) + " is missing";
-    return kNormalSources[1];
-  }
-  return kNormalSources.front();
-}
-
 struct DenoiseArgs {
   std::string in, out;
   std::string iterations = "20";
-  std::string normals_from;  // empty = default_source()
+  std::string normals_from;  // empty = default_method()
   std::string radius;  // empty = from the average spacing
   std::string threads = "0";
   std::string seed = "1";
@@ -68,7 +54,7 @@ int run_denoise(const DenoiseArgs& a) {
   if (!a.radius.empty()) dopt.radius = parse_double("--radius", a.radius, 0.0);
   dopt.run.threads = parse_int("--threads", a.threads, 0);
   std::string fallback_why;
-  const std::string source = a.normals_from.empty() ? default_source(fallback_why) : a.normals_from;
+  const std::string source = a.normals_from.empty() ? default_method(fallback_why) : a.normals_from;
   if (std::find(kNormalSources.begin(), kNormalSources.end(), source) == kNormalSources.end())
     throw nhnet::InvalidOptions("--normals-from must be one of " + source_list(", ") + ", got '" +
                                 one_line(source) + "'");

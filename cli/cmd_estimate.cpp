@@ -38,7 +38,7 @@ struct EstimateArgs {
   std::string ext;                 // batch: output extension (default: the input's)
   std::string report;              // --report JSON path
   bool fail_fast = false;
-  std::string method = "mfps";
+  std::string method;  // empty = default_method(): nhnet, else mfps with a warning
   std::string k;  // empty = auto
   std::string scales = "auto";
   std::string threads = "0";
@@ -54,6 +54,7 @@ struct Setup {
   nhnet::EstimateOptions opt;
   nhnet::OrientOptions orient;
   std::string model_path, model_sha256, device = "-";
+  std::string fallback_why;  // why the default method is not nhnet (empty: it is, or explicit)
 };
 
 /// One input's outcome, for the summary and --report.
@@ -75,7 +76,13 @@ std::string join(const std::vector<int>& v, const char* sep) {
 Setup prepare(const EstimateArgs& a) {
   Setup st;
   nhnet::EstimateOptions& opt = st.opt;
-  opt.method = nhnet::method_from_string(a.method);
+  // The default is NH-Net; --model or --device alone ask for it too (and fail loudly if it
+  // cannot run instead of falling back).
+  const bool nhnet_asked = !a.model.empty() || a.device != "auto";
+  const std::string method = !a.method.empty() ? a.method
+                             : nhnet_asked     ? "nhnet"
+                                               : default_method(st.fallback_why);
+  opt.method = nhnet::method_from_string(method);
   opt.k = a.k.empty() ? 0 : parse_int("--k", a.k, 3);
   opt.scales = parse_scales(a.scales);
   opt.run.threads = parse_int("--threads", a.threads, 0);
@@ -84,7 +91,7 @@ Setup prepare(const EstimateArgs& a) {
   opt.device = a.device;
   if (a.device != "auto" && a.device != "cpu" && a.device != "cuda")
     throw nhnet::InvalidOptions("--device must be auto, cpu or cuda, got '" + a.device + "'");
-  if (opt.method != nhnet::Method::NhNet && (!a.model.empty() || a.device != "auto"))
+  if (opt.method != nhnet::Method::NhNet && nhnet_asked)
     throw nhnet::InvalidOptions("--model and --device only apply to --method nhnet");
   if (!a.orient.empty()) st.orient = parse_orient(a.orient);
   st.orient.run.threads = opt.run.threads;
@@ -100,7 +107,9 @@ void load_model(const EstimateArgs& a, Setup& st) {
   st.device = model->device();
   st.opt.loaded_model = std::move(model);
   if (!a.report.empty()) st.model_sha256 = sha256_file(st.model_path);
-  if (a.device == "auto" && !a.quiet)
+  // --device auto says up front where it runs when NH-Net was asked for; the summary line
+  // always names the device.
+  if (a.device == "auto" && !a.method.empty() && !a.quiet)
     std::cerr << "nhnet-cli: NH-Net runs on " << st.device << " (--device auto)" << std::endl;
 }
 
@@ -156,7 +165,8 @@ void run_one(const EstimateArgs& a, const Setup& st, const std::string& in, cons
     std::snprintf(noise, sizeof noise, "%.3g", res.noise_ratio);
     std::ostringstream line;
     line << "nhnet-cli: " << cloud.size() << " points, " << res.failed << " failed, method "
-         << method << ", k " << res.k_used << ", scales "
+         << method << (opt.method == nhnet::Method::NhNet ? " on " + st.device : std::string())
+         << ", k " << res.k_used << ", scales "
          << (res.scales_used.empty() ? std::string("-") : join(res.scales_used, "/"))
          << ", noise ratio " << noise << ", " << res.candidates << " candidates, orient "
          << orient_summary(orient, ores);
@@ -333,6 +343,9 @@ int run_estimate(const EstimateArgs& a) {
   Setup st = prepare(a);
   if (!batch) check_output_format(a.files[1]);
   if (!a.ext.empty()) check_output_format("x." + a.ext);
+  if (!st.fallback_why.empty() && !a.quiet)
+    std::cerr << "nhnet-cli: warning: method mfps (" << st.fallback_why
+              << "; --method nhnet needs it)" << std::endl;
   if (st.opt.method == nhnet::Method::Pca && !st.opt.scales.empty() && !a.quiet)
     std::cerr << "nhnet-cli: warning: --scales is ignored with --method pca" << std::endl;
   if (batch) {
@@ -389,7 +402,8 @@ Command add_estimate_command(CLI::App& parent) {
                   "Write a JSON report: per input status, exit code, error, point and invalid "
                   "counts, seconds; method, device, model path and SHA-256, version")
       ->type_name("FILE");
-  sub->add_option("-m,--method", args->method, "pca | mfps | nhnet (default: mfps)")->type_name("NAME");
+  sub->add_option("-m,--method", args->method, "pca | mfps | nhnet (default: nhnet with the shipped model; mfps, with a warning, when "
+                  "the model file or libtorch is missing)")->type_name("NAME");
   sub->add_option("--model", args->model,
                   "NH-Net model (TorchScript from nhnet-export; default: the shipped models/nhnet.pt)")
       ->type_name("PATH");

@@ -3,6 +3,7 @@
 
 #include "nhnet/errors.hpp"
 #include "nhnet/io.hpp"
+#include "nhnet/nhnet_model.hpp"
 
 #include <CLI/CLI.hpp>
 
@@ -16,6 +17,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 
 namespace nhcli {
@@ -190,6 +192,19 @@ void add_output_flags(CLI::App* sub, bool& ascii, bool& overwrite, bool& quiet, 
 }
 
 // ---- files ---------------------------------------------------------------------------------------
+
+std::string default_method(std::string& why) {
+  if (!nhnet::nhnet_available()) {
+    why = "this build has no libtorch";
+    return "mfps";
+  }
+  const std::string model = nhnet::default_model_path();
+  if (model.empty() || !std::ifstream(model).good()) {
+    why = "the NH-Net model " + (model.empty() ? std::string("file") : model) + " is missing";
+    return "mfps";
+  }
+  return "nhnet";
+}
 
 namespace fs = std::filesystem;
 

@@ -88,6 +88,10 @@ int parse_int(const std::string& option, const std::string& text, int min);
 uint64_t parse_u64(const std::string& option, const std::string& text);
 /// "auto" (or empty) -> {}; "50,100,150" -> {50, 100, 150}; every value an integer >= 3.
 std::vector<int> parse_scales(const std::string& text);
+
+/// The default normal estimator: "nhnet" when it can run (this build links libtorch and the
+/// shipped model file is there), else "mfps" with `why` saying why nhnet could not.
+std::string default_method(std::string& why);
 /// Parses a whole string as a finite decimal number > `above` (strictly).
 double parse_double(const std::string& option, const std::string& text, double above);
 /// The value of --orient: "keep", "none", "mst", "mst:K" (K >= 2), "viewpoint:X,Y,Z".

@@ -400,8 +400,13 @@ case_row22_line_plane_close_planes() {
   grep -q "300 failed" stderr.txt || fail "collinear points were given normals"
   grep -q "degenerate neighbourhood" stderr.txt || fail "no warning for collinear points"
   awk 'BEGIN { srand(12); for (i = 0; i < 3000; i++) printf "%.17g %.17g 0\n", rand(), rand() }' >plane.xyz
-  accepted plane.xyz plane.xyzn
+  # The geometric stage gives a perfect plane exact normals; NH-Net (the default) adds its
+  # network's constant correction on a flat patch (measured 0.22 deg for the shipped model;
+  # removing it at export cost 0.1 deg of mean error on the benchmark subset, models/README.md).
+  accepted plane.xyz plane.xyzn --method mfps
   awk '!($4 == 0 && $5 == 0 && ($6 == 1 || $6 == -1)) { exit 1 }' plane.xyzn || fail "plane normals are not exactly +-z"
+  accepted plane.xyz plane_nh.xyzn
+  awk '{ if ($6 * $6 < 0.99996) exit 1 }' plane_nh.xyzn || fail "NH-Net tilts a plane's normals by more than 0.5 deg"
   awk 'BEGIN { srand(13); for (i = 0; i < 3000; i++) printf "%.17g %.17g %.17g\n", rand(), rand(), (i % 2) * 1e-9 }' >twin.xyz
   accepted twin.xyz twin.xyzn
 }
@@ -493,7 +498,7 @@ case_batch_runs() {
   printf 'this is not a cloud\n' >in/garbage.xyz
   printf '0 0 0\n1 1 1\n' >in/two.xyz
   echo "not a cloud either" >in/notes.md  # not a cloud extension: not taken from the directory
-  limited estimate in c.xyz missing.xyz -o out --report report.json --threads 2
+  limited estimate in c.xyz missing.xyz -o out --report report.json --threads 2 --method mfps
   [[ $RC == 10 ]] || fail "batch with bad inputs exited $RC, expected 10"
   local f
   for f in a b c; do
