@@ -13,9 +13,9 @@
 // Output: {"method":..., "k":..., "points":..., "time_s":..., "rss_before_mb":...,
 //          "mean_deg":..., "rms_deg":..., "pgp5":..., "pgp10":..., "count":..., "invalid":...,
 //          "k_used":..., "scales_used":[...], "stages":{"name": seconds, ...}}
-// "stages" (nhnet methods): wall seconds per progress stage of the core (kd-tree, neighbours,
-// pca, bandwidth, mfps planes, mfps selection, bilateral filter, canonical frames, height maps,
-// nhnet), timed from the core's progress callback. --normals-out writes the estimated normals
+// "stages" (nhnet methods): wall seconds per progress stage of the core (start, kd-tree,
+// neighbours, pca, bandwidth, mfps planes, mfps selection, bilateral filter, canonical frames,
+// height maps, nhnet), timed from the core's progress callback; they add up to time_s. --normals-out writes the estimated normals
 // (x y z nx ny nz, %.17g) so two builds can be compared bit for bit.
 #include "peers.hpp"
 
@@ -183,6 +183,7 @@ int main(int argc, char** argv) {
     }
     const double rss_before = rss_mb();
     const auto t0 = std::chrono::steady_clock::now();
+    g_stages.tick("start");  // until the core's first stage: input checks, sort, model load
     Output out = it->second(cloud.points, a);
     const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     g_stages.tick("");
