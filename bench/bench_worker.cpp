@@ -7,11 +7,16 @@
 // result with nhnet's metrics (unoriented angle error, metrics.hpp).
 //
 //   nhnet-bench-worker METHOD K GT_XYZN [--threads T] [--scales a,b,c] [--vcm-offset S]
+//                      [--normals-out FILE]
 //   nhnet-bench-worker --list
 //
 // Output: {"method":..., "k":..., "points":..., "time_s":..., "rss_before_mb":...,
 //          "mean_deg":..., "rms_deg":..., "pgp5":..., "pgp10":..., "count":..., "invalid":...,
-//          "k_used":..., "scales_used":[...]}
+//          "k_used":..., "scales_used":[...], "stages":{"name": seconds, ...}}
+// "stages" (nhnet methods): wall seconds per progress stage of the core (start, kd-tree,
+// neighbours, pca, bandwidth, mfps planes, mfps selection, bilateral filter, canonical frames,
+// height maps, nhnet), timed from the core's progress callback; they add up to time_s. --normals-out writes the estimated normals
+// (x y z nx ny nz, %.17g) so two builds can be compared bit for bit.
 #include "peers.hpp"
 
 #include "nhnet/errors.hpp"
@@ -27,6 +32,7 @@
 #include <functional>
 #include <map>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -39,7 +45,23 @@ struct Args {
   int threads = 2;
   std::vector<int> scales;    // nhnet mfps: explicit patch sizes (empty = auto)
   double vcm_offset = 5.0;    // CGAL VCM offset radius in average spacings
+  std::string normals_out;    // optional: write the normals here
 };
+
+/// Wall seconds per core progress stage: the time between two callbacks goes to the stage the
+/// earlier one named (a stage's tail and the gap before the next stage count as that stage).
+struct StageClock {
+  std::map<std::string, double> seconds;
+  std::string current;
+  std::chrono::steady_clock::time_point last = std::chrono::steady_clock::now();
+  void tick(const std::string& stage) {
+    const auto now = std::chrono::steady_clock::now();
+    if (!current.empty()) seconds[current] += std::chrono::duration<double>(now - last).count();
+    current = stage;
+    last = now;
+  }
+};
+StageClock g_stages;
 
 struct Output {
   nhnet::Normals normals;
@@ -55,6 +77,10 @@ Output run_nhnet(const nhnet::Points& p, const Args& a, nhnet::Method m, bool au
   o.k = auto_k ? 0 : a.k;
   o.scales = auto_k ? std::vector<int>{} : a.scales;
   o.run.threads = a.threads;
+  o.run.progress = [](double, const std::string& stage) {
+    g_stages.tick(stage);
+    return true;
+  };
   nhnet::EstimateResult r = nhnet::estimate_normals(p, o);
   return {std::move(r.normals), r.k_used, r.scales_used};
 }
@@ -108,7 +134,7 @@ int parse_int(const std::string& s, const char* what) {
 int usage() {
   std::fprintf(stderr,
                "usage: nhnet-bench-worker METHOD K GT_XYZN [--threads T] [--scales a,b,c] "
-               "[--vcm-offset S]\n       nhnet-bench-worker --list\n");
+               "[--vcm-offset S] [--normals-out FILE]\n       nhnet-bench-worker --list\n");
   return 2;
 }
 
@@ -123,8 +149,10 @@ int main(int argc, char** argv) {
       for (auto& kv : methods()) std::printf("%s\n", kv.first.c_str());
       return 0;
     }
-    if ((s == "--threads" || s == "--scales" || s == "--vcm-offset") && i + 1 < argc) {
+    if ((s == "--threads" || s == "--scales" || s == "--vcm-offset" || s == "--normals-out") &&
+        i + 1 < argc) {
       std::string v = argv[++i];
+      if (s == "--normals-out") a.normals_out = v;
       if (s == "--threads") a.threads = parse_int(v, "--threads");
       if (s == "--vcm-offset") a.vcm_offset = std::atof(v.c_str());
       if (s == "--scales") {
@@ -154,8 +182,23 @@ int main(int argc, char** argv) {
     }
     const double rss_before = rss_mb();
     const auto t0 = std::chrono::steady_clock::now();
+    g_stages.tick("start");  // until the core's first stage: input checks, sort, model load
     Output out = it->second(cloud.points, a);
     const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    g_stages.tick("");
+    if (!a.normals_out.empty()) {
+      FILE* f = std::fopen(a.normals_out.c_str(), "w");
+      if (!f) throw std::runtime_error("cannot write " + a.normals_out);
+      for (Eigen::Index i = 0; i < out.normals.rows(); ++i)
+        std::fprintf(f, "%.17g %.17g %.17g %.17g %.17g %.17g\n", cloud.points(i, 0),
+                     cloud.points(i, 1), cloud.points(i, 2), out.normals(i, 0), out.normals(i, 1),
+                     out.normals(i, 2));
+      std::fclose(f);
+    }
+    std::string stages = "{";
+    for (const auto& kv : g_stages.seconds)
+      stages += (stages.size() > 1 ? ", \"" : "\"") + kv.first + "\": " + num(kv.second);
+    stages += "}";
     const nhnet::AngleStats s = nhnet::angle_stats(out.normals, cloud.normals);
     std::string scales = "[";
     for (size_t i = 0; i < out.scales_used.size(); ++i)
@@ -164,11 +207,11 @@ int main(int argc, char** argv) {
     std::printf(
         "{\"method\": \"%s\", \"k\": %d, \"points\": %lld, \"time_s\": %s, \"rss_before_mb\": %s, "
         "\"mean_deg\": %s, \"rms_deg\": %s, \"pgp5\": %s, \"pgp10\": %s, \"count\": %lld, "
-        "\"invalid\": %lld, \"k_used\": %d, \"scales_used\": %s}\n",
+        "\"invalid\": %lld, \"k_used\": %d, \"scales_used\": %s, \"stages\": %s}\n",
         a.method.c_str(), a.k, static_cast<long long>(cloud.size()), num(secs).c_str(),
         num(rss_before).c_str(), num(s.mean).c_str(), num(s.rms).c_str(), num(s.pgp5).c_str(),
         num(s.pgp10).c_str(), static_cast<long long>(s.count), static_cast<long long>(s.invalid),
-        out.k_used, scales.c_str());
+        out.k_used, scales.c_str(), stages.c_str());
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "nhnet-bench-worker: %s: %s\n", a.method.c_str(), e.what());

@@ -10,6 +10,8 @@ peak RSS read with ``os.wait4`` is that method's own. Accuracy is scored with nh
     /usr/bin/python3 bench/nhnet_bench.py [--quick] [--points N] [--out DIR] [--data DIR]
         [--categories A,B] [--models M1,M2] [--levels 0.1,0.2] [--methods a,b] [--threads T]
         [--build DIR] [--open3d-python PY] [--timeout S]
+    /usr/bin/python3 bench/nhnet_bench.py --scaling [--sizes 100000,1000000,10000000] ...
+        (time and peak memory per point against the cloud size: bench/scaling.py)
 
 Writes DIR/results.json (every per-cloud record), DIR/table.md (per category and overall,
 plus every category per noise level) and DIR/chart.png (mean error per category, as the paper's
@@ -419,6 +421,16 @@ def git_commit() -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
+    args = list(sys.argv[1:] if argv is None else argv)
+    if "--scaling" in args:  # the scaling benchmark (issue 10) has its own options
+        import importlib.util
+        import types
+        spec = importlib.util.spec_from_file_location("nhnet_scaling", REPO / "bench" / "scaling.py")
+        scaling = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(scaling)
+        return scaling.main(args, types.SimpleNamespace(
+            REPO=REPO, datagen=datagen, run_child=run_child, last_json=last_json,
+            machine_info=machine_info, git_commit=git_commit))
     ap = argparse.ArgumentParser(prog="nhnet_bench.py", description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true",
                     help=f"CI subset: first model of each paper category at its middle noise "

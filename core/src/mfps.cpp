@@ -78,9 +78,11 @@ bool four_point_plane(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const 
   return true;
 }
 
-/// E of Eq. 1 (mean Gaussian kernel of residuals) over members `idx` (all if null).
+/// E of Eq. 1 (mean Gaussian kernel of residuals) over members `idx` (all if null). With
+/// `terms` (all members only), the kernel of every member is stored there too: they are the
+/// IRLS weights of that plane, so the refinement does not recompute them.
 double objective(const std::vector<Eigen::Vector3d>& q, const Plane& pl, double inv_s2,
-                 const std::vector<int>* idx) {
+                 const std::vector<int>* idx, double* terms = nullptr) {
   double e = 0;
   if (idx) {
     for (int k : *idx) {
@@ -89,9 +91,11 @@ double objective(const std::vector<Eigen::Vector3d>& q, const Plane& pl, double 
     }
     return e / double(idx->size());
   }
-  for (const auto& p : q) {
-    const double r = (p - pl.c).dot(pl.n);
-    e += std::exp(-r * r * inv_s2);
+  for (size_t k = 0; k < q.size(); ++k) {
+    const double r = (q[k] - pl.c).dot(pl.n);
+    const double t = std::exp(-r * r * inv_s2);
+    if (terms) terms[k] = t;
+    e += t;
   }
   return e / double(q.size());
 }
@@ -176,6 +180,7 @@ MfpsResult mfps_normals(const Points& points, const IndexMatrix& knn, const Eige
     thread_local std::vector<int> subset;
     thread_local std::vector<std::pair<double, int>> scored;
     thread_local std::vector<Plane> cands;
+    thread_local std::vector<double> best_w, next_w;  // kernels of `best` / of a new plane
     const Eigen::Vector3d pj = points.row(j).transpose();
     const double sj = sigma[j];
     const double inv_s2 = 1.0 / (sj * sj);
@@ -217,11 +222,15 @@ MfpsResult mfps_normals(const Points& points, const IndexMatrix& knn, const Eige
       }
       Plane best;
       double best_e = -1;
+      best_w.resize(size_t(K));
+      next_w.resize(size_t(K));
+      bool have_w = false;  // best_w holds the kernels of `best`
       if (scored.empty()) {
         // Every sample rejected: fall back to the least-squares plane of the whole patch.
         w.assign(size_t(K), 1.0);
         if (!weighted_plane(q, w.data(), best)) continue;
-        best_e = objective(q, best, inv_s2, nullptr);
+        best_e = objective(q, best, inv_s2, nullptr, best_w.data());
+        have_w = true;
         fallbacks.fetch_add(1, std::memory_order_relaxed);
       } else {
         const size_t keep = std::min(scored.size(), size_t(std::max(1, options.rescore)));
@@ -231,26 +240,31 @@ MfpsResult mfps_normals(const Points& points, const IndexMatrix& knn, const Eige
                           });
         for (size_t t = 0; t < keep; ++t) {
           const Plane& pl = cands[size_t(scored[t].second)];
-          const double e = sub ? objective(q, pl, inv_s2, nullptr) : scored[t].first;
+          const double e = sub ? objective(q, pl, inv_s2, nullptr, next_w.data()) : scored[t].first;
           if (e > best_e) {
             best_e = e;
             best = pl;
+            if (sub) best_w.swap(next_w);
+            have_w = sub != nullptr;
           }
         }
       }
       // IRLS: weighted PCA with the Gaussian weights of the current plane increases E.
       for (int it = 0; it < options.refine_iterations; ++it) {
-        w.resize(size_t(K));
-        for (int t = 0; t < K; ++t) {
-          const double r = (q[size_t(t)] - best.c).dot(best.n);
-          w[size_t(t)] = std::exp(-r * r * inv_s2);
+        if (!have_w) {
+          for (int t = 0; t < K; ++t) {
+            const double r = (q[size_t(t)] - best.c).dot(best.n);
+            best_w[size_t(t)] = std::exp(-r * r * inv_s2);
+          }
+          have_w = true;
         }
         Plane next;
-        if (!weighted_plane(q, w.data(), next)) break;
-        const double e = objective(q, next, inv_s2, nullptr);
+        if (!weighted_plane(q, best_w.data(), next)) break;
+        const double e = objective(q, next, inv_s2, nullptr, next_w.data());
         if (!(e > best_e)) break;
         best_e = e;
         best = next;
+        best_w.swap(next_w);
       }
       const size_t slot = size_t(j) * size_t(ns) + size_t(s);
       plane_n[slot] = best.n.cast<float>();

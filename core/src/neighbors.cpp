@@ -1,5 +1,9 @@
 // Neighbour search: one nanoflann kd-tree (float, re-centred coordinates) per cloud.
 // Chosen by measurement against PCL's FLANN tree and CGAL's kd-tree (see the note on issue 2).
+// After the build the coordinates are stored in the tree's leaf order (the tree's index array
+// becomes the identity), so a leaf's points are contiguous in memory and knn_all visits queries
+// in that order: the same tree, the same visiting order, the same results (ties included), 20-30 %
+// less neighbour-search time at 1M points (note on issue 10). Indices map back to input order.
 #include "nhnet/neighbors.hpp"
 
 #include "nhnet/errors.hpp"
@@ -25,7 +29,8 @@ using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<fl
 }  // namespace
 
 struct Neighbors::Impl {
-  FloatCloud cloud;
+  FloatCloud cloud;                // in leaf order
+  std::vector<uint32_t> original;  // leaf-order position -> input index
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
   std::unique_ptr<Tree> tree;
 };
@@ -41,6 +46,16 @@ Neighbors::Neighbors(const Points& points) : impl_(std::make_unique<Impl>()) {
       impl_->cloud.xyz[3 * i + d] = static_cast<float>(points(i, d) - impl_->centre[d]);
   impl_->tree = std::make_unique<Tree>(3, impl_->cloud, nanoflann::KDTreeSingleIndexAdaptorParams(10));
   impl_->tree->buildIndex();
+  // Leaf order: permute the coordinates by the tree's index array and make that array the
+  // identity. The nodes (split planes, bounding boxes, leaf ranges) are untouched.
+  auto& vind = impl_->tree->vAcc;
+  impl_->original.assign(vind.begin(), vind.end());
+  std::vector<float> sorted(3 * size_t(n));
+  for (size_t p = 0; p < size_t(n); ++p) {
+    for (int d = 0; d < 3; ++d) sorted[3 * p + d] = impl_->cloud.xyz[3 * size_t(impl_->original[p]) + d];
+    vind[p] = uint32_t(p);
+  }
+  impl_->cloud.xyz.swap(sorted);
 }
 
 Neighbors::~Neighbors() = default;
@@ -58,24 +73,27 @@ void Neighbors::knn_all(int k, IndexMatrix& indices, DistanceMatrix* sq_distance
   if (sq_distances) detail::resize_fresh(*sq_distances, n, kk);
   detail::Progress progress(run.progress);
   if (run.progress) progress.stage("neighbours", 0, 1);
-  detail::parallel_for(n, run.threads, run.progress ? &progress : nullptr, [&](int64_t i) {
+  const std::vector<uint32_t>& original = impl_->original;
+  // Queries in leaf order (p): consecutive queries walk the same nodes and leaves.
+  detail::parallel_for(n, run.threads, run.progress ? &progress : nullptr, [&](int64_t p) {
     thread_local std::vector<uint32_t> idx;
     thread_local std::vector<float> d2;
     idx.resize(kk);
     d2.resize(kk);
-    const float* q = &impl_->cloud.xyz[3 * i];
+    const float* q = &impl_->cloud.xyz[3 * p];
     const size_t found = impl_->tree->knnSearch(q, size_t(kk), idx.data(), d2.data());
     (void)found;
     // Exact duplicates can put another point first: make the query point column 0.
-    if (idx[0] != uint32_t(i)) {
-      auto it = std::find(idx.begin(), idx.end(), uint32_t(i));
-      if (it == idx.end()) it = idx.end() - 1;  // i lost among > k duplicates: replace the last
+    if (idx[0] != uint32_t(p)) {
+      auto it = std::find(idx.begin(), idx.end(), uint32_t(p));
+      if (it == idx.end()) it = idx.end() - 1;  // p lost among > k duplicates: replace the last
       std::rotate(idx.begin(), it, it + 1);
       std::rotate(d2.begin(), d2.begin() + (it - idx.begin()), d2.begin() + (it - idx.begin()) + 1);
-      idx[0] = uint32_t(i);
+      idx[0] = uint32_t(p);
       d2[0] = 0.f;
     }
-    for (int j = 0; j < kk; ++j) indices(i, j) = int32_t(idx[j]);
+    const Eigen::Index i = Eigen::Index(original[size_t(p)]);
+    for (int j = 0; j < kk; ++j) indices(i, j) = int32_t(original[idx[j]]);
     if (sq_distances)
       for (int j = 0; j < kk; ++j) (*sq_distances)(i, j) = d2[j];
   });
@@ -89,7 +107,8 @@ void Neighbors::knn(const Eigen::Vector3d& query, int k, std::vector<int32_t>& i
   std::vector<uint32_t> idx(kk);
   sq_distances.resize(kk);
   const size_t found = kk ? impl_->tree->knnSearch(q, kk, idx.data(), sq_distances.data()) : 0;
-  indices.assign(idx.begin(), idx.begin() + found);
+  indices.resize(found);
+  for (size_t j = 0; j < found; ++j) indices[j] = int32_t(impl_->original[idx[j]]);
   sq_distances.resize(found);
 }
 
@@ -102,7 +121,7 @@ void Neighbors::radius(const Eigen::Vector3d& query, double radius,
   impl_->tree->radiusSearch(q, r2, res, nanoflann::SearchParams(32, 0.f, true));
   out.clear();
   out.reserve(res.size());
-  for (auto& p : res) out.emplace_back(int32_t(p.first), p.second);
+  for (auto& p : res) out.emplace_back(int32_t(impl_->original[p.first]), p.second);
 }
 
 }  // namespace nhnet

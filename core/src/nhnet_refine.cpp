@@ -37,6 +37,12 @@ EstimateResult estimate_nhnet(const Points& points, const EstimateOptions& optio
   run.threads = options.run.threads;
   for (Eigen::Index b = 0; b < m; b += block) {
     const Eigen::Index len = std::min(block, m - b);
+    // The block's stages (descriptor stages, "nhnet") reach the caller's callback by name, so
+    // a caller can time descriptors and network apart (the scaling benchmark does).
+    if (cb)
+      run.progress = [cb, b, len, m](double f, const std::string& s) {
+        return cb(0.7 + 0.3 * (double(b) + f * double(len)) / double(m), s);
+      };
     const IndexMatrix knn = in.knn.middleRows(b, len);
     DescriptorMatrix features;
     Rotations rot;

@@ -181,6 +181,8 @@ Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor> NhNetModel::infer(
     if (features.row(i).allFinite()) rows.push_back(i);
   torch::InferenceMode guard;
   std::vector<float> buf;
+  // The stage starts here (the caller can time the network apart from what came before).
+  if (run.progress && !run.progress(0.0, "nhnet")) throw Cancelled();
   for (size_t b = 0; b < rows.size(); b += size_t(batch)) {
     const size_t e = std::min(rows.size(), b + size_t(batch));
     buf.resize((e - b) * size_t(d));

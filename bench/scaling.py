@@ -1,0 +1,275 @@
+"""Scaling benchmark (issue 10): time and peak memory per point from 100k to 10M points.
+
+    /usr/bin/python3 bench/nhnet_bench.py --scaling [--sizes 100000,1000000,10000000]
+        [--model fandisk] [--methods pcl-pca,pca-auto,mfps-auto,nhnet] [--threads 2]
+        [--out docs/benchmark/scaling] [--data DIR] [--timeout S] [--max-rss-gb G]
+
+One dense cloud per size, sampled uniformly from one benchmark mesh (nhnet-datagen's sampler).
+The Gaussian noise is 0.1 % of the bounding-box diagonal at 100k points and shrinks as
+1/sqrt(N), i.e. it stays the same fraction of the point spacing: the automatic neighbourhood
+sizes then stay the same and time per point measures the implementation, not a noise level that
+grows with density (a fixed 0.1 % at 1M points makes the auto scales 137/274/300 instead of
+43/86/129). Every method runs in its own process (nhnet-bench-worker), so the peak RSS is its
+own; PCL NormalEstimationOMP (k=50) runs before every other method and once at the end, and each
+method's ratio is to the mean of the two PCL runs around it, taken seconds apart on the same
+cloud (the machine may be shared). Per-stage seconds come from the core's progress stages.
+
+Writes OUT/table.md, OUT/results.json and OUT/scaling.png (time per point and peak bytes per
+point against N, log x).
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime as dt
+import json
+import math
+import os
+import sys
+import time
+from pathlib import Path
+
+BASE_POINTS = 100_000
+BASE_NOISE_PERCENT = 0.1
+PCL_K = 50
+LABELS = {
+    "pcl-pca": "PCL NormalEstimationOMP (k=50)",
+    "pca-auto": "nhnet pca (auto k)",
+    "mfps-auto": "nhnet mfps (auto scales)",
+    "nhnet": "nhnet NH-Net (MFPS + network)",
+}
+DESCRIPTOR_STAGES = ("bilateral filter", "canonical frames", "height maps")
+NETWORK_STAGES = ("nhnet",)
+
+
+def noise_percent(n: int) -> float:
+    return BASE_NOISE_PERCENT * math.sqrt(BASE_POINTS / n)
+
+
+def ensure_cloud(datagen, data: Path, model: str, n: int, log) -> Path:
+    gt = data / f"{model}_{n}.gt.xyzn"
+    if gt.exists():
+        return gt
+    log(f"data: sampling {n} points from {model} (noise {noise_percent(n):.4f} % of the diagonal)")
+    clean, normals, _, seed = datagen.sample_clean(model, "uniform", n)
+    noisy, _ = datagen.add_noise(clean, noise_percent(n), seed + 1)
+    datagen.write_cloud(gt.parent / gt.name[: -len(".gt.xyzn")], noisy, normals, clean,
+                        files=("gt.xyzn",))
+    return gt
+
+
+def run_method(bench, worker: Path, method: str, gt: Path, threads: int, timeout: float) -> dict:
+    cmd = [str(worker), method, str(PCL_K), str(gt), "--threads", str(threads)]
+    r = bench.run_child(cmd, timeout)
+    rec = {"method": method, "child_wall_s": r["wall_s"], "peak_mb": r["maxrss_mb"]}
+    res = bench.last_json(r["stdout"]) if r["rc"] == 0 else None
+    if res is None:
+        why = "timeout" if r["timed_out"] else f"exit {r['rc']}"
+        rec["error"] = f"{why}: {r['stderr'].strip()[-300:]}"
+        return rec
+    for key in ("time_s", "rss_before_mb", "mean_deg", "rms_deg", "k_used", "scales_used",
+                "stages", "points"):
+        if key in res:
+            rec[key] = res[key]
+    return rec
+
+
+def derive(rec: dict, n: int, threads: int, pcl_before: dict | None, pcl_after: dict | None) -> None:
+    """Adds per-point figures and the ratio to the PCL runs around the record."""
+    if "error" in rec:
+        return
+    rec["us_per_point"] = 1e6 * rec["time_s"] / n
+    rec["points_per_s_per_core"] = n / (rec["time_s"] * threads)
+    rec["peak_bytes_per_point"] = rec["peak_mb"] * 1048576 / n
+    rec["delta_bytes_per_point"] = (rec["peak_mb"] - rec["rss_before_mb"]) * 1048576 / n
+    refs = [p["time_s"] for p in (pcl_before, pcl_after) if p and "error" not in p]
+    if refs and rec["method"] != "pcl-pca":
+        rec["ratio_to_pcl"] = rec["time_s"] / (sum(refs) / len(refs))
+    st = rec.get("stages") or {}
+    d = sum(st.get(s, 0.0) for s in DESCRIPTOR_STAGES)
+    w = sum(st.get(s, 0.0) for s in NETWORK_STAGES)
+    if d > 0:
+        rec["descriptor_points_per_s"] = n / d
+    if w > 0:
+        rec["network_points_per_s"] = n / w
+
+
+def fmt(v, spec=".2f") -> str:
+    return "—" if v is None else format(v, spec)
+
+
+def report(records: list[dict], meta: dict, methods: list[str]) -> list[str]:
+    sizes = sorted({r["n"] for r in records})
+    md = ["# nhnet scaling benchmark", "",
+          f"- date: {meta['date']}", f"- machine: {meta['machine']}",
+          f"- command: `{meta['command']}`", f"- commit: {meta['commit']}",
+          f"- cloud: {meta['model']} sampled uniformly, noise {BASE_NOISE_PERCENT} % of the "
+          f"diagonal at {BASE_POINTS} points, scaled by sqrt({BASE_POINTS}/N) (constant "
+          "fraction of the spacing)",
+          f"- threads per method: {meta['threads']}; ratio = time / mean of the PCL k={PCL_K} "
+          "runs just before and after, same cloud", ""]
+    if meta.get("skipped"):
+        md += [f"- not run: {s}" for s in meta["skipped"]] + [""]
+    md += ["| points | method | time s | µs/point | × PCL | points/s/core | peak MB | "
+           "peak B/point | Δ B/point | k / scales | mean ° |",
+           "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for n in sizes:
+        for m in methods:
+            for r in [r for r in records if r["n"] == n and r["method"] == m]:
+                if "error" in r:
+                    md.append(f"| {n} | {LABELS.get(m, m)} | error: {r['error'][:80]} |"
+                              + " |" * 8)
+                    continue
+                ks = str(r.get("k_used", "")) + (
+                    " / " + ",".join(map(str, r["scales_used"])) if r.get("scales_used") else "")
+                md.append(f"| {n} | {LABELS.get(m, m)} | {fmt(r['time_s'])} | "
+                          f"{fmt(r['us_per_point'], '.1f')} | {fmt(r.get('ratio_to_pcl'))} | "
+                          f"{fmt(r['points_per_s_per_core'], '.0f')} | {fmt(r['peak_mb'], '.0f')} | "
+                          f"{fmt(r['peak_bytes_per_point'], '.0f')} | "
+                          f"{fmt(r['delta_bytes_per_point'], '.0f')} | {ks} | "
+                          f"{fmt(r.get('mean_deg'))} |")
+    md += ["", "## Time per point relative to the smallest size (flat = 1.00; bar: within ±25 %)",
+           "", "| method | " + " | ".join(str(n) for n in sizes) + " |",
+           "|---|" + "---|" * len(sizes)]
+    for m in methods:
+        row = {}
+        for n in sizes:
+            ok = [r for r in records if r["n"] == n and r["method"] == m and "error" not in r]
+            if ok:
+                row[n] = sum(r["us_per_point"] for r in ok) / len(ok)
+        if row:
+            base = row[min(row)]
+            md.append(f"| {LABELS.get(m, m)} | "
+                      + " | ".join(fmt(row[n] / base) if n in row else "—" for n in sizes) + " |")
+    md += ["", "## Seconds per stage (core progress stages)", ""]
+    for r in records:
+        if r.get("stages") and r["method"] != "pcl-pca":
+            st = ", ".join(f"{k} {v:.2f}" for k, v in sorted(r["stages"].items(),
+                                                            key=lambda kv: -kv[1]) if v >= 0.005)
+            extra = ""
+            if r.get("descriptor_points_per_s"):
+                extra = (f"; descriptors {r['descriptor_points_per_s']:.0f} points/s, network "
+                         f"{r.get('network_points_per_s', float('nan')):.0f} points/s")
+            md.append(f"- {r['n']} {r['method']}: {st}{extra}")
+    return md
+
+
+def write_plot(records: list[dict], methods: list[str], path: Path, title: str) -> str | None:
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError as e:
+        return f"no plot: matplotlib not importable ({e})"
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.8))
+    for m in methods:
+        ok = sorted((r for r in records if r["method"] == m and "error" not in r),
+                    key=lambda r: r["n"])
+        if not ok:
+            continue
+        xs = [r["n"] for r in ok]
+        axes[0].plot(xs, [r["us_per_point"] for r in ok], "o-", label=LABELS.get(m, m))
+        axes[1].plot(xs, [r["peak_bytes_per_point"] for r in ok], "o-", label=LABELS.get(m, m))
+    axes[0].set_ylabel("µs per point (wall)")
+    axes[1].set_ylabel("peak RSS bytes per point")
+    axes[1].axhline(400, color="k", lw=0.8, ls="--", label="budget 400 B/point")
+    for ax in axes:
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("points")
+        ax.grid(alpha=0.3, which="both")
+        ax.legend(fontsize=8)
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return None
+
+
+def main(argv: list[str], bench) -> int:
+    """Entry point; `bench` is the nhnet_bench module (children, machine info, datagen)."""
+    ap = argparse.ArgumentParser(prog="nhnet_bench.py --scaling", description=__doc__.split("\n\n")[0])
+    ap.add_argument("--scaling", action="store_true")
+    ap.add_argument("--sizes", default="100000,1000000,10000000",
+                    help="comma-separated point counts (default 100k, 1M, 10M)")
+    ap.add_argument("--model", default="fandisk", help="benchmark mesh to sample (default fandisk)")
+    ap.add_argument("--methods", default=",".join(LABELS),
+                    help="comma-separated worker methods (default " + ",".join(LABELS) + ")")
+    ap.add_argument("--threads", type=int, default=2, help="threads of each method (default 2)")
+    ap.add_argument("--nhnet-max-points", type=int, default=1_000_000,
+                    help="run nhnet only on sizes up to this (default 1M; its network runs at "
+                         "about 1k points/s on 2 CPU cores)")
+    ap.add_argument("--data", default=None,
+                    help="cloud directory (default data/generated/scaling)")
+    ap.add_argument("--out", default=None, help="results directory (default build/bench-scaling)")
+    ap.add_argument("--build", default=str(bench.REPO / "build"))
+    ap.add_argument("--timeout", type=float, default=3600.0,
+                    help="seconds one method may take on one cloud (default 3600)")
+    ap.add_argument("--max-rss-gb", type=float, default=None,
+                    help="skip a size whose estimated MFPS peak (from the previous size's bytes "
+                         "per point) exceeds this many GiB (default: 70 %% of MemTotal)")
+    a = ap.parse_args(argv)
+    log = lambda msg: print(msg, flush=True)  # noqa: E731
+    sizes = [int(x) for x in a.sizes.split(",")]
+    methods = a.methods.split(",")
+    bad = [m for m in methods if m not in LABELS]
+    if bad:
+        ap.error(f"unknown methods {bad}; known: {','.join(LABELS)}")
+    worker = Path(a.build) / "bench" / "nhnet-bench-worker"
+    if not os.access(worker, os.X_OK):
+        print(f"nhnet_bench: {worker} not built; run: bash scripts/build.sh", file=sys.stderr)
+        return 2
+    data = Path(a.data) if a.data else bench.REPO / "data" / "generated" / "scaling"
+    out = Path(a.out) if a.out else bench.REPO / "build" / "bench-scaling"
+    data.mkdir(parents=True, exist_ok=True)
+    out.mkdir(parents=True, exist_ok=True)
+    mem_total_gb = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / 2**30
+    max_rss = a.max_rss_gb if a.max_rss_gb is not None else 0.7 * mem_total_gb
+    meta = {"date": dt.datetime.now(dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
+            "machine": bench.machine_info(), "commit": bench.git_commit(),
+            "command": "/usr/bin/python3 bench/nhnet_bench.py " + " ".join(argv),
+            "model": a.model, "threads": a.threads, "skipped": []}
+    records: list[dict] = []
+    t0 = time.perf_counter()
+    worst_bpp = 0.0
+    for n in sizes:
+        if worst_bpp and worst_bpp * n / 2**30 > max_rss:
+            why = (f"{n} points: the previous size's peak of {worst_bpp:.0f} bytes/point "
+                   f"predicts {worst_bpp * n / 2**30:.1f} GiB > {max_rss:.1f} GiB allowed")
+            meta["skipped"].append(why)
+            log("skip " + why)
+            continue
+        gt = ensure_cloud(bench.datagen, data, a.model, n, log)
+        order = []
+        for m in methods:
+            if m == "nhnet" and n > a.nhnet_max_points:
+                meta["skipped"].append(f"nhnet at {n} points (--nhnet-max-points "
+                                       f"{a.nhnet_max_points})")
+                continue
+            if m != "pcl-pca":
+                order.append("pcl-pca")
+                order.append(m)
+        order.append("pcl-pca")
+        runs = []
+        for m in order:
+            rec = run_method(bench, worker, m, gt, a.threads, a.timeout)
+            rec["n"] = n
+            runs.append(rec)
+            log(f"{n} {m}: " + (rec["error"] if "error" in rec else
+                                f"{rec['time_s']:.2f} s, peak {rec['peak_mb']:.0f} MB"))
+        for i, rec in enumerate(runs):
+            before = runs[i - 1] if i > 0 and runs[i - 1]["method"] == "pcl-pca" else None
+            after = runs[i + 1] if i + 1 < len(runs) and runs[i + 1]["method"] == "pcl-pca" else None
+            derive(rec, n, a.threads, before, after)
+            if "error" not in rec:
+                worst_bpp = max(worst_bpp, rec["peak_bytes_per_point"])
+        records += runs
+    meta["wall_s"] = time.perf_counter() - t0
+    md = report(records, meta, methods)
+    (out / "table.md").write_text("\n".join(md) + "\n")
+    (out / "results.json").write_text(json.dumps({"meta": meta, "records": records}, indent=1) + "\n")
+    note = write_plot(records, methods, out / "scaling.png",
+                      f"nhnet scaling, {a.model}, {a.threads} threads, {meta['date']}")
+    print("\n".join(md))
+    log(note or f"wrote {out / 'table.md'}, {out / 'results.json'}, {out / 'scaling.png'}")
+    return 0 if records and all("error" not in r for r in records) else 1

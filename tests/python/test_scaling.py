@@ -1,0 +1,76 @@
+"""The scaling benchmark end to end on tiny clouds (bench/nhnet_bench.py --scaling): every method
+runs at every size next to PCL, the table, results and plot come out with sane per-point numbers
+and per-stage seconds (NH-Net's descriptors and network apart). About 30 s on 2 cores.
+"""
+
+import importlib.util
+import json
+import os
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+BUILD = Path(os.environ.get("NHNET_BUILD_DIR", REPO / "build"))
+
+spec = importlib.util.spec_from_file_location("nhnet_bench", REPO / "bench" / "nhnet_bench.py")
+nhnet_bench = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(nhnet_bench)
+
+SIZES = [2000, 6000]
+
+
+@pytest.fixture(scope="module")
+def scaling(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("scaling")
+    out = tmp / "out"
+    rc = nhnet_bench.main(["--scaling", "--sizes", ",".join(map(str, SIZES)), "--threads", "2",
+                           "--nhnet-max-points", str(SIZES[0]), "--data", str(tmp / "data"),
+                           "--out", str(out), "--build", str(BUILD)])
+    assert rc == 0
+    return out, json.loads((out / "results.json").read_text())
+
+
+def test_every_method_at_every_size(scaling):
+    out, results = scaling
+    recs = results["records"]
+    assert not [r for r in recs if "error" in r], recs
+    for n in SIZES:
+        for m in ("pcl-pca", "pca-auto", "mfps-auto"):
+            assert [r for r in recs if r["n"] == n and r["method"] == m], (n, m)
+    # nhnet only up to --nhnet-max-points, and the table says what was not run
+    assert {r["n"] for r in recs if r["method"] == "nhnet"} == {SIZES[0]}
+    table = (out / "table.md").read_text()
+    assert f"not run: nhnet at {SIZES[1]} points" in table
+    assert "| method | 2000 | 6000 |" in table
+    png = (out / "scaling.png").read_bytes()
+    assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 10000
+
+
+def test_per_point_numbers_are_sane(scaling):
+    _, results = scaling
+    for r in results["records"]:
+        assert r["points"] == r["n"], r
+        assert r["time_s"] > 0 and r["us_per_point"] == pytest.approx(1e6 * r["time_s"] / r["n"])
+        # a process holds at least its cloud (3 doubles + 3 normals per point) at its peak
+        assert r["peak_bytes_per_point"] > 48, r
+        assert r["peak_mb"] >= r["rss_before_mb"] > 0, r
+        if r["method"] != "pcl-pca":
+            assert r["ratio_to_pcl"] > 0, r
+        assert 0 <= r["mean_deg"] <= r["rms_deg"] <= 90, r
+
+
+def test_stages_are_timed(scaling):
+    _, results = scaling
+    for r in results["records"]:
+        if r["method"] == "pcl-pca":
+            continue
+        st = r["stages"]
+        # the stages cover the timed call (gaps count towards the stage before them)
+        assert sum(st.values()) == pytest.approx(r["time_s"], rel=0.05, abs=0.05), r
+        assert st.get("neighbours", 0) > 0, r
+        if r["method"] in ("mfps-auto", "nhnet"):
+            assert st.get("mfps planes", 0) > 0, r
+    (nh,) = [r for r in results["records"] if r["method"] == "nhnet"]
+    assert nh["stages"].get("height maps", 0) > 0 and nh["stages"].get("nhnet", 0) > 0, nh
+    assert nh["descriptor_points_per_s"] > 0 and nh["network_points_per_s"] > 0, nh
