@@ -59,7 +59,8 @@ PY
 
 echo "== installed nhnet-cli"
 # --orient none: the library examples return unoriented normals; the CLI orients by default.
-"$prefix/bin/nhnet-cli" estimate "$tmp/in.pcd" "$tmp/cli.xyz" --quiet --orient none
+# --method mfps: the library's default method (it needs no model file); the CLI's is nhnet.
+"$prefix/bin/nhnet-cli" estimate "$tmp/in.pcd" "$tmp/cli.xyz" --quiet --orient none --method mfps
 
 echo "== outside CMake project from the README"
 cmake -S "$tmp/project" -B "$tmp/project/build" ${gen:+-G "$gen"} -DCMAKE_BUILD_TYPE=Release \
