@@ -323,8 +323,9 @@ def test_same_normals_as_cli(tmp_path):
     nhnet.write(str(sub), cloud.points[:4000])
     out = tmp_path / "cli.xyzn"
     # --orient none: estimate_normals() is unoriented by default, the CLI orients (mst).
+    # --method mfps: estimate_normals()'s default; the CLI's is nhnet.
     subprocess.run([str(CLI), "estimate", str(sub), str(out), "--quiet", "--scales", "30,60",
-                    "--seed", "3", "--orient", "none"], check=True)
+                    "--seed", "3", "--orient", "none", "--method", "mfps"], check=True)
     cli = nhnet.read(str(out)).normals
     py = nhnet.estimate_normals(nhnet.read(str(sub)).points, scales=[30, 60], seed=3)
     np.testing.assert_allclose(py, cli, atol=1e-12)  # XYZ text keeps full double precision
