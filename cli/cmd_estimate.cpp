@@ -42,6 +42,7 @@ struct EstimateArgs {
   std::string k;  // empty = auto
   std::string scales = "auto";
   std::string threads = "0";
+  std::string tile_points = "1000000";
   std::string orient;  // empty = keep when the input has normals, mst otherwise
   std::string seed = "1";
   std::string model;            // empty = the shipped model
@@ -86,6 +87,10 @@ Setup prepare(const EstimateArgs& a) {
   opt.k = a.k.empty() ? 0 : parse_int("--k", a.k, 3);
   opt.scales = parse_scales(a.scales);
   opt.run.threads = parse_int("--threads", a.threads, 0);
+  opt.tile_points = parse_int("--tile-points", a.tile_points, 0);
+  if (opt.tile_points > 0 && opt.tile_points < 1000)
+    throw nhnet::InvalidOptions("--tile-points must be 0 (no tiles) or at least 1000, got " +
+                                a.tile_points);
   opt.seed = parse_u64("--seed", a.seed);
   opt.model = a.model;
   opt.device = a.device;
@@ -168,7 +173,9 @@ void run_one(const EstimateArgs& a, const Setup& st, const std::string& in, cons
          << method << (opt.method == nhnet::Method::NhNet ? " on " + st.device : std::string())
          << ", k " << res.k_used << ", scales "
          << (res.scales_used.empty() ? std::string("-") : join(res.scales_used, "/"))
-         << ", noise ratio " << noise << ", " << res.candidates << " candidates, orient "
+         << ", noise ratio " << noise << ", " << res.candidates << " candidates"
+         << (res.tiles > 1 ? ", " + std::to_string(res.tiles) + " tiles" : std::string())
+         << ", orient "
          << orient_summary(orient, ores);
     char secs[32];
     std::snprintf(secs, sizeof secs, "%.2f", seconds);
@@ -183,7 +190,7 @@ void run_one(const EstimateArgs& a, const Setup& st, const std::string& in, cons
        << ", \"scales\": [" << join(res.scales_used, ", ") << "]"
        << ", \"noise_ratio\": " << json_number(res.noise_ratio)
        << ", \"spacing\": " << json_number(res.spacing)
-       << ", \"candidates\": " << res.candidates
+       << ", \"candidates\": " << res.candidates << ", \"tiles\": " << res.tiles
        << ", " << orient_json(orient, ores)
        << ", \"warnings\": " << res.warnings.size() + read_warnings.size()
        << ", \"seconds\": " << json_number(seconds, 4) << "}";
@@ -416,6 +423,11 @@ Command add_estimate_command(CLI::App& parent) {
                   "MFPS patch sizes: auto or a list like 50,100,150 (default: auto)")
       ->type_name("LIST");
   sub->add_option("--threads", args->threads, "Worker threads, 0 = all cores (default: 0)")
+      ->type_name("N");
+  sub->add_option("--tile-points", args->tile_points,
+                  "Clouds with more points are processed in spatial tiles of at most N points "
+                  "with overlapping halos: same normals, memory bounded by one tile; 0 = never "
+                  "(default: 1000000)")
       ->type_name("N");
   sub->add_option("--orient", args->orient,
                   "keep: agree with the input's normals (default when the input has normals); "

@@ -11,6 +11,8 @@
 #include "nhnet/nhnet_model.hpp"
 #include "nhnet/scales.hpp"
 #include "dedupe.hpp"
+#include "stats.hpp"
+#include "tiling.hpp"
 #include "parallel.hpp"
 
 #include <algorithm>
@@ -53,14 +55,13 @@ int64_t orient_like(Normals& normals, const Normals& reference) {
 
 namespace nhnet {
 
-namespace {
+namespace detail {
 
-/// Recentres `pts` (finite) in double and scales it by powers of two so every coordinate lies in
-/// [-2, 2): far-from-origin scans (UTM-scale 1e6 offsets) keep their precision in the float
-/// kd-tree, coordinates near 1e31 or 1e-300 neither overflow float squared distances nor fall
-/// under the absolute floors of the plane fits. Power-of-two factors are exact, so the normals
-/// are those of the same cloud at the origin at unit size. Returns the input length of one
-/// normalised unit.
+// Recentres `pts` (finite) in double and scales it by powers of two so every coordinate lies in
+// [-2, 2): far-from-origin scans (UTM-scale 1e6 offsets) keep their precision in the float
+// kd-tree, coordinates near 1e31 or 1e-300 neither overflow float squared distances nor fall
+// under the absolute floors of the plane fits. Power-of-two factors are exact, so the normals
+// are those of the same cloud at the origin at unit size.
 double normalise(Points& pts) {
   double unit = 1.0;
   // First bring the magnitudes near 1 so that the mean cannot overflow, then recentre, then
@@ -76,42 +77,67 @@ double normalise(Points& pts) {
   return unit;
 }
 
-int max_scale(const std::vector<int>& scales) {
-  return scales.empty() ? 0 : *std::max_element(scales.begin(), scales.end());
+Probe probe_noise(const Points& pts, const Neighbors& tree, const RunContext& run,
+                  IndexMatrix* table) {
+  // PCA residuals of the probe neighbourhoods against the point spacing. Clouds of up to
+  // kProbeAllPoints points probe every point, and the probe's table (sorted by distance) then
+  // serves any smaller size as its prefix. Larger clouds probe an evenly spaced subset of
+  // kProbeAllPoints points (every (m / kProbeAllPoints)-th in the canonical order): the noise
+  // quantile and the median spacing of that many points differ from the whole cloud's in the
+  // third digit, and the neighbour search then runs once, at the size the stages need, instead
+  // of twice (note on issue 10).
+  Probe out;
+  const Eigen::Index m = pts.rows();
+  const int kprobe = int(std::min<Eigen::Index>(kNoiseProbeK, m));
+  DistanceMatrix d2;
+  Eigen::VectorXd residual;
+  if (m <= kProbeAllPoints) {
+    IndexMatrix local;
+    IndexMatrix& knn = table ? *table : local;
+    tree.knn_all(kprobe, knn, &d2, narrow(run, 0.02, 0.12));
+    if (kprobe < 4) return out;
+    residual = pca_normals(pts, knn, PcaOptions{kprobe}, narrow(run, 0.12, 0.2)).residual_rms;
+  } else {
+    const size_t count = size_t(kProbeAllPoints);
+    std::vector<int64_t> rows(count);
+    const double step = double(m) / double(count);  // > 1: distinct rows, first row 0
+    for (size_t r = 0; r < count; ++r) rows[r] = std::min<int64_t>(int64_t(m) - 1, int64_t(double(r) * step));
+    IndexMatrix probe;
+    tree.knn_rows(kprobe, rows, probe, &d2, narrow(run, 0.02, 0.06));
+    residual.resize(probe.rows());
+    parallel_for(probe.rows(), run.threads, nullptr, [&](int64_t r) {
+      Eigen::Vector3d ev;
+      fit_plane(pts, &probe(r, 0), kprobe, nullptr, &ev);
+      residual[r] = std::sqrt(std::max(0.0, ev[0]));
+    });
+  }
+  out.noise = estimate_noise(d2, residual);
+  std::vector<double> far(size_t(d2.rows()));
+  for (Eigen::Index i = 0; i < d2.rows(); ++i) far[size_t(i)] = std::sqrt(double(d2(i, d2.cols() - 1)));
+  out.far_radius = quantile(std::move(far), 0.99);
+  out.far_k = int(d2.cols());
+  return out;
 }
-}  // namespace
 
-EstimateResult estimate_normals(const Points& points, const EstimateOptions& options) {
-  if (options.method == Method::NhNet) return estimate_nhnet(points, options);
-  if (options.k < 0 || options.k == 1 || options.k == 2)
-    throw InvalidOptions("k must be 0 (auto) or at least 3, got " + std::to_string(options.k));
-  for (int s : options.scales)
-    if (s < 4) throw InvalidOptions("every scale must be at least 4, got " + std::to_string(s));
-  if (options.run.threads < 0) throw InvalidOptions("threads must be >= 0");
-  if (options.mfps_samples < 1) throw InvalidOptions("mfps samples must be >= 1");
-  detail::start_threads(options.run.threads);  // before the big allocations
-
-  EstimateResult res;
+Canonical canonical_points(const Points& points, std::vector<std::string>& warnings) {
+  Canonical c;
   const Eigen::Index n = points.rows();
-  res.normals.setConstant(n, 3, std::numeric_limits<double>::quiet_NaN());
-  res.valid.assign(size_t(n), 0);
-  res.curvature.setConstant(n, std::numeric_limits<double>::quiet_NaN());
-
+  std::vector<int64_t>& finite = c.rows;
   // Finite points only: a non-finite point neither gets a normal nor disturbs its neighbours.
-  std::vector<int64_t> finite;
   finite.reserve(size_t(n));
   for (Eigen::Index i = 0; i < n; ++i)
     if (points.row(i).allFinite()) finite.push_back(i);
   const size_t finite_count = finite.size();
+  c.finite_count = finite_count;
   if (Eigen::Index(finite_count) < n)
-    res.warnings.push_back(std::to_string(n - Eigen::Index(finite_count)) +
+    warnings.push_back(std::to_string(n - Eigen::Index(finite_count)) +
                            " non-finite points skipped (reported as failed)");
   // Exact duplicates: only the first copy of a position takes part (k copies of one point would
   // fill its neighbourhood and leave no plane); every copy gets that copy's normal, so a cloud
   // with duplicated points gets the same normals as the deduplicated cloud. The points are
   // processed in a canonical (sorted) order, which makes the result independent of the input
   // order.
-  const std::vector<int64_t> copies = detail::dedupe_exact(points, finite);
+  c.copies = dedupe_exact(points, finite);
   if (finite.size() < 3)
     throw UnprocessableInput(
         "only " + std::to_string(finite.size()) +
@@ -120,13 +146,79 @@ EstimateResult estimate_normals(const Points& points, const EstimateOptions& opt
                                       : std::string()) +
         "; at least 3 are needed");
   if (finite.size() < finite_count)
-    res.warnings.push_back(std::to_string(finite_count - finite.size()) +
+    warnings.push_back(std::to_string(finite_count - finite.size()) +
                            " exact duplicate points share the normal of their first copy");
   const Eigen::Index m = Eigen::Index(finite.size());
-  Points pts(m, 3);
+  Points& pts = c.pts;
+  pts.resize(m, 3);
   for (Eigen::Index i = 0; i < m; ++i) pts.row(i) = points.row(finite[size_t(i)]);
   // Work in a normalised frame (see normalise()); `unit` converts lengths back to input units.
-  const double unit = normalise(pts);
+  c.unit = normalise(pts);
+
+  return c;
+}
+
+void finish_result(EstimateResult& res, const std::vector<int64_t>& copies, size_t finite_count) {
+  const Eigen::Index n = res.normals.rows();
+  const bool flags = res.candidate.size() == size_t(n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const int64_t first = copies[size_t(i)];
+    if (first >= 0 && first != i) {
+      res.normals.row(i) = res.normals.row(first);
+      res.valid[size_t(i)] = res.valid[size_t(first)];
+      res.curvature[i] = res.curvature[first];
+      if (flags) res.candidate[size_t(i)] = res.candidate[size_t(first)];
+    }
+  }
+  res.failed = int64_t(std::count(res.valid.begin(), res.valid.end(), uint8_t(0)));
+  const int64_t nonfinite = n - int64_t(finite_count);
+  if (res.failed > nonfinite)
+    res.warnings.push_back(std::to_string(res.failed - nonfinite) +
+                           " points with a degenerate neighbourhood (identical or collinear "
+                           "neighbours) got no normal (reported as failed)");
+}
+
+void check_options(const EstimateOptions& options) {
+  if (options.k < 0 || options.k == 1 || options.k == 2)
+    throw InvalidOptions("k must be 0 (auto) or at least 3, got " + std::to_string(options.k));
+  for (int s : options.scales)
+    if (s < 4) throw InvalidOptions("every scale must be at least 4, got " + std::to_string(s));
+  if (options.run.threads < 0) throw InvalidOptions("threads must be >= 0");
+  if (options.mfps_samples < 1) throw InvalidOptions("mfps samples must be >= 1");
+  if (options.tile_points < 0) throw InvalidOptions("tile points must be >= 0 (0 = no tiles)");
+  if (!(options.tile_halo > 0)) throw InvalidOptions("tile halo must be > 0");
+  if (options.method == Method::NhNet && options.nhnet_batch < 1)
+    throw InvalidOptions("nhnet batch must be >= 1");
+}
+
+}  // namespace detail
+
+namespace {
+
+int max_scale(const std::vector<int>& scales) {
+  return scales.empty() ? 0 : *std::max_element(scales.begin(), scales.end());
+}
+}  // namespace
+
+EstimateResult estimate_normals(const Points& points, const EstimateOptions& options) {
+  detail::check_options(options);
+  if (detail::wants_tiles(points, options)) return detail::estimate_tiled(points, options);
+  if (options.method == Method::NhNet) return estimate_nhnet(points, options);
+  detail::start_threads(options.run.threads);  // before the big allocations
+
+  EstimateResult res;
+  const Eigen::Index n = points.rows();
+  res.normals.setConstant(n, 3, std::numeric_limits<double>::quiet_NaN());
+  res.valid.assign(size_t(n), 0);
+  res.curvature.setConstant(n, std::numeric_limits<double>::quiet_NaN());
+
+  detail::Canonical canon = detail::canonical_points(points, res.warnings);
+  const std::vector<int64_t>& finite = canon.rows;
+  const std::vector<int64_t>& copies = canon.copies;
+  const size_t finite_count = canon.finite_count;
+  const Eigen::Index m = canon.pts.rows();
+  Points& pts = canon.pts;
+  const double unit = canon.unit;
 
   const RunContext& run = options.run;
   detail::Progress top(run.progress);
@@ -134,19 +226,19 @@ EstimateResult estimate_normals(const Points& points, const EstimateOptions& opt
   Neighbors tree(pts);
   top.throw_if_cancelled();
 
-  // Noise probe: PCA residuals of the probe neighbourhoods against the point spacing.
-  // Skipped when every size is given explicitly.
+  // Noise probe (probe_noise): skipped when every size is given explicitly or the tiling
+  // measured the whole cloud already (known_spacing).
+  const bool known = options.known_spacing > 0;
   const bool need_probe =
-      options.k == 0 || (options.method == Method::Mfps && options.scales.empty());
-  const int kprobe = int(std::min<Eigen::Index>(kNoiseProbeK, m));
+      !known && (options.k == 0 || (options.method == Method::Mfps && options.scales.empty()));
   IndexMatrix knn;
-  DistanceMatrix d2;
-  if (need_probe) tree.knn_all(kprobe, knn, &d2, detail::narrow(run, 0.02, 0.12));
-  if (need_probe && kprobe >= 4) {
-    const PcaResult probe = pca_normals(pts, knn, PcaOptions{kprobe}, detail::narrow(run, 0.12, 0.2));
-    const NoiseEstimate ne = estimate_noise(d2, probe.residual_rms);
-    res.noise_ratio = ne.ratio;
-    res.spacing = ne.spacing;
+  if (known) {
+    res.noise_ratio = options.known_noise_ratio;
+    res.spacing = options.known_spacing / unit;
+  } else if (need_probe) {
+    const detail::Probe probe = detail::probe_noise(pts, tree, run, &knn);
+    res.noise_ratio = probe.noise.ratio;
+    res.spacing = probe.noise.spacing;
   }
   const double spacing = res.spacing;  // normalised units, for the stages below
   ScaleChoice choice = choose_scales(res.noise_ratio, m);
@@ -178,12 +270,17 @@ EstimateResult estimate_normals(const Points& points, const EstimateOptions& opt
   // Rows are sorted by distance, so the probe's table serves any smaller size as its prefix.
   const int kdepth = int(std::min<Eigen::Index>(kneed, m));
   if (kdepth > knn.cols()) tree.knn_all(kdepth, knn, nullptr, detail::narrow(run, 0.2, 0.35));
+  else if (knn.cols() > kdepth) knn = knn.leftCols(kdepth).eval();  // only what the stages use
 
   const PcaResult pca = pca_normals(pts, knn, PcaOptions{res.k_used}, detail::narrow(run, 0.35, 0.45));
   Normals out = pca.normals;
   if (options.method == Method::Mfps) {
-    const FeatureDetection fd = detect_feature_candidates(pca.variation);
+    FeatureDetectionOptions fo;
+    fo.fixed_threshold = options.known_variation_threshold;
+    const FeatureDetection fd = detect_feature_candidates(pca.variation, fo);
     res.candidates = fd.count;
+    res.candidate.assign(size_t(n), 0);
+    for (Eigen::Index i = 0; i < m; ++i) res.candidate[size_t(finite[size_t(i)])] = fd.candidate[size_t(i)];
     BandwidthOptions bo;
     bo.k_patch = res.k_used;
     bo.k_average = kdepth;
@@ -221,21 +318,8 @@ EstimateResult estimate_normals(const Points& points, const EstimateOptions& opt
       res.curvature[finite[size_t(i)]] = pca.variation[i];
     }
   }
-  for (Eigen::Index i = 0; i < n; ++i) {
-    const int64_t first = copies[size_t(i)];
-    if (first >= 0 && first != i) {
-      res.normals.row(i) = res.normals.row(first);
-      res.valid[size_t(i)] = res.valid[size_t(first)];
-      res.curvature[i] = res.curvature[first];
-    }
-  }
   res.spacing = spacing * unit;
-  res.failed = int64_t(std::count(res.valid.begin(), res.valid.end(), uint8_t(0)));
-  const int64_t nonfinite = n - int64_t(finite_count);
-  if (res.failed > nonfinite)
-    res.warnings.push_back(std::to_string(res.failed - nonfinite) +
-                           " points with a degenerate neighbourhood (identical or collinear "
-                           "neighbours) got no normal (reported as failed)");
+  detail::finish_result(res, copies, finite_count);
   if (run.progress) {
     top.stage("done", 1, 1);
     top.throw_if_cancelled();

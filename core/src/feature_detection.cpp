@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <vector>
 
 namespace nhnet {
@@ -41,6 +42,16 @@ FeatureDetection detect_feature_candidates(const Eigen::VectorXd& variation,
   FeatureDetection out;
   const Eigen::Index n = variation.size();
   out.candidate.assign(size_t(n), 0);
+  out.absolute_threshold = std::numeric_limits<double>::infinity();
+  if (options.fixed_threshold >= 0) {
+    out.absolute_threshold = out.threshold = options.fixed_threshold;
+    for (Eigen::Index i = 0; i < n; ++i)
+      if (std::isfinite(variation[i]) && variation[i] > options.fixed_threshold) {
+        out.candidate[size_t(i)] = 1;
+        ++out.count;
+      }
+    return out;
+  }
   std::vector<double> v;
   v.reserve(size_t(n));
   for (Eigen::Index i = 0; i < n; ++i)
@@ -70,6 +81,7 @@ FeatureDetection detect_feature_candidates(const Eigen::VectorXd& variation,
     threshold = std::min(1.0, detail::quantile(v, options.fallback_quantile) / scale);
   }
   out.threshold = threshold;
+  if (threshold < 1) out.absolute_threshold = threshold * scale;
   for (Eigen::Index i = 0; i < n; ++i) {
     if (std::isfinite(variation[i]) && std::min(1.0, variation[i] / scale) > threshold) {
       out.candidate[size_t(i)] = 1;

@@ -64,6 +64,34 @@ Neighbors& Neighbors::operator=(Neighbors&&) noexcept = default;
 
 Eigen::Index Neighbors::size() const { return Eigen::Index(impl_->cloud.kdtree_get_point_count()); }
 
+namespace {
+// One kNN query of the point at leaf position p, self first; writes row `out` of the tables.
+template <class TreeT>
+void query_row(const TreeT& tree, const FloatCloud& cloud, const std::vector<uint32_t>& original,
+               int64_t p, int kk, Eigen::Index out, IndexMatrix& indices,
+               DistanceMatrix* sq_distances) {
+  thread_local std::vector<uint32_t> idx;
+  thread_local std::vector<float> d2;
+  idx.resize(kk);
+  d2.resize(kk);
+  const float* q = &cloud.xyz[3 * p];
+  const size_t found = tree.knnSearch(q, size_t(kk), idx.data(), d2.data());
+  (void)found;
+  // Exact duplicates can put another point first: make the query point column 0.
+  if (idx[0] != uint32_t(p)) {
+    auto it = std::find(idx.begin(), idx.end(), uint32_t(p));
+    if (it == idx.end()) it = idx.end() - 1;  // p lost among > k duplicates: replace the last
+    std::rotate(idx.begin(), it, it + 1);
+    std::rotate(d2.begin(), d2.begin() + (it - idx.begin()), d2.begin() + (it - idx.begin()) + 1);
+    idx[0] = uint32_t(p);
+    d2[0] = 0.f;
+  }
+  for (int j = 0; j < kk; ++j) indices(out, j) = int32_t(original[idx[j]]);
+  if (sq_distances)
+    for (int j = 0; j < kk; ++j) (*sq_distances)(out, j) = d2[j];
+}
+}  // namespace
+
 void Neighbors::knn_all(int k, IndexMatrix& indices, DistanceMatrix* sq_distances,
                         const RunContext& run) const {
   if (k < 1) throw InvalidOptions("Neighbors::knn_all: k must be >= 1");
@@ -76,26 +104,34 @@ void Neighbors::knn_all(int k, IndexMatrix& indices, DistanceMatrix* sq_distance
   const std::vector<uint32_t>& original = impl_->original;
   // Queries in leaf order (p): consecutive queries walk the same nodes and leaves.
   detail::parallel_for(n, run.threads, run.progress ? &progress : nullptr, [&](int64_t p) {
-    thread_local std::vector<uint32_t> idx;
-    thread_local std::vector<float> d2;
-    idx.resize(kk);
-    d2.resize(kk);
-    const float* q = &impl_->cloud.xyz[3 * p];
-    const size_t found = impl_->tree->knnSearch(q, size_t(kk), idx.data(), d2.data());
-    (void)found;
-    // Exact duplicates can put another point first: make the query point column 0.
-    if (idx[0] != uint32_t(p)) {
-      auto it = std::find(idx.begin(), idx.end(), uint32_t(p));
-      if (it == idx.end()) it = idx.end() - 1;  // p lost among > k duplicates: replace the last
-      std::rotate(idx.begin(), it, it + 1);
-      std::rotate(d2.begin(), d2.begin() + (it - idx.begin()), d2.begin() + (it - idx.begin()) + 1);
-      idx[0] = uint32_t(p);
-      d2[0] = 0.f;
+    query_row(*impl_->tree, impl_->cloud, original, p, kk, Eigen::Index(original[size_t(p)]),
+              indices, sq_distances);
+  });
+}
+
+void Neighbors::knn_rows(int k, const std::vector<int64_t>& rows, IndexMatrix& indices,
+                         DistanceMatrix* sq_distances, const RunContext& run) const {
+  if (k < 1) throw InvalidOptions("Neighbors::knn_rows: k must be >= 1");
+  const Eigen::Index n = size();
+  const int kk = int(std::min<Eigen::Index>(k, n));
+  const Eigen::Index r = Eigen::Index(rows.size());
+  // Input index -> leaf position (the inverse of `original`), for the requested rows only.
+  std::vector<int64_t> leaf(rows.size(), -1);
+  {
+    std::vector<int64_t> pos(size_t(n), -1);
+    for (size_t p = 0; p < size_t(n); ++p) pos[impl_->original[p]] = int64_t(p);
+    for (size_t i = 0; i < rows.size(); ++i) {
+      if (rows[i] < 0 || rows[i] >= n) throw InvalidOptions("Neighbors::knn_rows: row out of range");
+      leaf[i] = pos[size_t(rows[i])];
     }
-    const Eigen::Index i = Eigen::Index(original[size_t(p)]);
-    for (int j = 0; j < kk; ++j) indices(i, j) = int32_t(original[idx[j]]);
-    if (sq_distances)
-      for (int j = 0; j < kk; ++j) (*sq_distances)(i, j) = d2[j];
+  }
+  detail::resize_fresh(indices, r, kk);
+  if (sq_distances) detail::resize_fresh(*sq_distances, r, kk);
+  detail::Progress progress(run.progress);
+  if (run.progress) progress.stage("neighbours", 0, 1);
+  detail::parallel_for(r, run.threads, run.progress ? &progress : nullptr, [&](int64_t i) {
+    query_row(*impl_->tree, impl_->cloud, impl_->original, leaf[size_t(i)], kk, Eigen::Index(i),
+              indices, sq_distances);
   });
 }
 

@@ -58,6 +58,22 @@ struct EstimateOptions {
   std::shared_ptr<const NhNetModel> loaded_model;
   /// NH-Net block size: points whose descriptors are computed and run through the model at once.
   int nhnet_batch = 4096;
+  /// Spatial tiles (not in the paper; tiling.cpp): a cloud with more finite points than this is
+  /// processed in tiles of at most this many points, each with a halo of the points around it,
+  /// so memory is bounded by one tile whatever the cloud's size; results equal the untiled
+  /// run's up to rounding (tested). 0 = never tile.
+  int64_t tile_points = 1000000;
+  /// Halo width around each tile, in radii of the largest neighbourhood the stages use (MFPS
+  /// patches reach two radii, NH-Net's descriptors of MFPS normals three; 4 leaves a margin).
+  double tile_halo = 4;
+  /// Advanced, set by the tiling for each tile: noise ratio and point spacing (input units)
+  /// measured on the whole cloud. When known_spacing > 0 the noise probe is skipped and these
+  /// choose the neighbourhood sizes, so every tile uses the whole cloud's sizes.
+  double known_noise_ratio = 0;
+  double known_spacing = 0;
+  /// Advanced, set by the tiling: the whole cloud's candidate threshold on the surface variation
+  /// (FeatureDetection::absolute_threshold); < 0 = chosen from this cloud's histogram.
+  double known_variation_threshold = -1;
   /// Threads (0 = all cores) and progress/cancel callback.
   RunContext run;
 };
@@ -74,6 +90,10 @@ struct EstimateResult {
   Eigen::VectorXd curvature;
   /// Points classified as candidates near sharp features (MFPS only).
   int64_t candidates = 0;
+  /// N flags (MFPS and NH-Net; empty for PCA): 1 = the point was a candidate.
+  std::vector<uint8_t> candidate;
+  /// Spatial tiles the cloud was processed in (1 = untiled; see tile_points).
+  int tiles = 1;
   /// Estimated noise level: residual bandwidth / average point spacing (dimensionless).
   double noise_ratio = 0;
   /// Average spacing of the cloud (mean distance to the nearest other point), input units.

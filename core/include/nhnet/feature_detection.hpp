@@ -24,6 +24,10 @@ struct FeatureDetectionOptions {
   double normalising_quantile = 0.999;
   /// Used when the histogram never flattens: candidates are the points above this quantile.
   double fallback_quantile = 0.9;
+  /// Not the paper's: when >= 0, candidates are the points whose (absolute) variation exceeds
+  /// this, instead of the histogram rule (the tiling applies the whole cloud's threshold to
+  /// every tile).
+  double fixed_threshold = -1;
 };
 
 struct FeatureDetection {
@@ -31,6 +35,9 @@ struct FeatureDetection {
   std::vector<uint8_t> candidate;
   /// Threshold on the normalised variation that was applied.
   double threshold = 0;
+  /// The same threshold on the variation itself (threshold x the normalising quantile; +inf
+  /// when nothing can be a candidate): what fixed_threshold takes.
+  double absolute_threshold = 0;
   /// True when the histogram rule found no threshold and the fallback quantile was used.
   bool used_fallback = false;
   /// Number of candidates.

@@ -30,6 +30,12 @@ class Neighbors {
   void knn_all(int k, IndexMatrix& indices, DistanceMatrix* sq_distances,
                const RunContext& run = {}) const;
 
+  /// K nearest neighbours of the points `rows` (R indices into the tree's points), self first as
+  /// in knn_all: `indices` becomes R x K (row r = point rows[r]), `sq_distances` (optional)
+  /// R x K. The same neighbours as the matching rows of knn_all.
+  void knn_rows(int k, const std::vector<int64_t>& rows, IndexMatrix& indices,
+                DistanceMatrix* sq_distances, const RunContext& run = {}) const;
+
   /// K nearest neighbours of an arbitrary query point (3-vector), ascending distance.
   void knn(const Eigen::Vector3d& query, int k, std::vector<int32_t>& indices,
            std::vector<float>& sq_distances) const;

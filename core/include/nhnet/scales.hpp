@@ -15,12 +15,15 @@
 
 #include "nhnet/types.hpp"
 
+#include <cstdint>
 #include <vector>
 
 namespace nhnet {
 
 /// Neighbourhood size of the noise probe (self included).
 constexpr int kNoiseProbeK = 75;
+/// Clouds with more points probe an evenly spaced subset of this many (estimate.cpp).
+constexpr int64_t kProbeAllPoints = 200000;
 /// Largest patch size the automatic rule picks (memory of the shared neighbour table).
 constexpr int kMaxScale = 300;
 
