@@ -144,6 +144,16 @@ NhNetModel::NhNetModel(const std::string& path, const std::string& device, int t
   check_metadata(impl_->meta, path);
   impl_->module.eval();
   at::set_num_threads(threads > 0 ? threads : std::max(1, omp_get_max_threads()));
+  // Frozen (weights inlined as constants, batch norms folded into the layers before them) and,
+  // on the CPU, optimised for inference (oneDNN convolutions): 3.3x the points per second of
+  // the scripted module on 2 cores, outputs equal to 1e-6 (note on issue 10). A model the passes
+  // cannot handle runs as it was loaded.
+  try {
+    torch::jit::Module frozen = torch::jit::freeze(impl_->module);
+    if (impl_->device == "cpu") frozen = torch::jit::optimize_for_inference(frozen);
+    impl_->module = frozen;
+  } catch (const std::exception&) {
+  }
   // A test forward pass on two zero descriptors: a model that loads but is not a B x D -> B x 3
   // network (or breaks on this device) is refused here, before any input is read.
   const int64_t dsize = descriptor_size(DescriptorOptions{});
