@@ -62,3 +62,29 @@ def test_train_tiny_and_export(tmp_path):
     # The checkpoint holds the config too.
     ck = torch.load(str(tmp_path / "run" / "best.ckpt"))
     assert TrainConfig.from_dict(json.loads(ck["config"])).conv1 == 4
+
+
+def test_export_zeroes_tiny_weights(tmp_path):
+    """Weights near the float32 minimum (what weight decay leaves) are stored as 0: their
+    products are denormal floats, slow on CPUs; the outputs stay the same."""
+    from nhnet_training.export import TINY_WEIGHT, export
+    from nhnet_training.model import NhNet
+
+    cfg = TrainConfig(conv1=4, conv2=4, hidden1=8, hidden2=8)
+    torch.manual_seed(0)
+    model = NhNet(cfg).eval()
+    with torch.no_grad():
+        w = model.branches[2].weight
+        w.view(-1)[:10] = 3e-37
+        w.view(-1)[10:20] = -1e-25
+        w.view(-1)[20] = 1e-3  # a small but real weight stays
+    x = torch.from_numpy(samples(4)["features"][:32])
+    with torch.no_grad():
+        before = model(x).clone()
+    path = tmp_path / "m.pt"
+    export(model, cfg, str(path))
+    m = torch.jit.load(str(path))
+    params = [t for t in list(m.parameters()) + list(m.buffers()) if t.is_floating_point()]
+    assert all(int(((t.abs() < TINY_WEIGHT) & (t != 0)).sum()) == 0 for t in params)
+    assert float(dict(m.named_parameters())["branches.2.weight"].view(-1)[20]) == pytest.approx(1e-3)
+    assert torch.allclose(m(x), before, atol=1e-6)

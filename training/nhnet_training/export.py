@@ -24,8 +24,31 @@ def load_checkpoint(path: str) -> tuple[NhNet, TrainConfig, dict]:
     return model, cfg, ck.get("info", {})
 
 
+# Parameters below this magnitude are stored as 0 (see flush_tiny).
+TINY_WEIGHT = 1e-20
+
+
+def flush_tiny(module: torch.nn.Module, threshold: float = TINY_WEIGHT) -> int:
+    """Sets every parameter and buffer entry smaller than `threshold` in magnitude to 0, in
+    place; returns how many. Weight decay leaves thousands of weights near the float32 minimum
+    (1e-38 .. 1e-30) after a long run; their products with activations are denormal floats,
+    which CPUs compute many times slower: such a model ran at 37 % of the speed of the same
+    network with them zeroed (2 401 vs 6 519 points/s, 2 threads), with identical outputs. A
+    weight under 1e-20 adds less than 1e-17 to any activation here, far below float32's
+    resolution."""
+    count = 0
+    with torch.no_grad():
+        for t in list(module.parameters()) + list(module.buffers()):
+            if t.is_floating_point():
+                small = (t.abs() < threshold) & (t != 0)
+                count += int(small.sum())
+                t[small] = 0
+    return count
+
+
 def export(model: NhNet, cfg: TrainConfig, out: str, info: dict | None = None) -> dict:
     model = model.eval()
+    flush_tiny(model)
     meta = metadata(cfg)
     meta["info"] = info or {}
     scripted = torch.jit.script(model)
