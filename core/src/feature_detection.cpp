@@ -44,7 +44,8 @@ FeatureDetection detect_feature_candidates(const Eigen::VectorXd& variation,
   out.candidate.assign(size_t(n), 0);
   out.absolute_threshold = std::numeric_limits<double>::infinity();
   if (options.fixed_threshold >= 0) {
-    out.absolute_threshold = out.threshold = options.fixed_threshold;
+    out.absolute_threshold = options.fixed_threshold;
+    out.threshold = std::numeric_limits<double>::quiet_NaN();
     for (Eigen::Index i = 0; i < n; ++i)
       if (std::isfinite(variation[i]) && variation[i] > options.fixed_threshold) {
         out.candidate[size_t(i)] = 1;

@@ -48,6 +48,16 @@ bool is_count_line(std::string_view line, uint64_t& count) {
   return tokens.next(t) && parse_count(t, kMaxCount, count) && tokens.done();
 }
 
+/// Next line with data (not blank, not a '#' comment); false at the end.
+bool next_data_line(LineCursor& lines, std::string_view& line) {
+  while (lines.next(line)) {
+    Tokens tokens(line);
+    std::string_view t;
+    if (tokens.next(t) && t[0] != '#') return true;
+  }
+  return false;
+}
+
 /// An empty cloud of `n` points with `columns` per point (normals from 6 columns on).
 Cloud allocate(size_t n, size_t columns) {
   Cloud cloud;
@@ -87,10 +97,7 @@ Cloud read_xyz(const FileBytes& file, std::vector<std::string>* warnings) {
     std::string_view line;
     std::vector<double> values;
     bool first = true;
-    while (lines.next(line)) {
-      Tokens tokens(line);
-      std::string_view t;
-      if (!tokens.next(t) || t[0] == '#') continue;
+    while (next_data_line(lines, line)) {
       if (first && is_count_line(line, declared)) {
         first = false;
         has_declared = true;
@@ -116,10 +123,7 @@ Cloud read_xyz(const FileBytes& file, std::vector<std::string>* warnings) {
   row.reserve(columns);
   bool first = true;
   size_t i = 0;
-  while (lines.next(line)) {
-    Tokens tokens(line);
-    std::string_view t;
-    if (!tokens.next(t) || t[0] == '#') continue;
+  while (next_data_line(lines, line)) {
     if (first && has_declared) {
       first = false;
       continue;

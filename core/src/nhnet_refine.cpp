@@ -10,14 +10,17 @@
 
 namespace nhnet {
 
+std::shared_ptr<const NhNetModel> model_for(const EstimateOptions& options) {
+  if (options.loaded_model) return options.loaded_model;
+  return std::make_shared<const NhNetModel>(
+      options.model.empty() ? default_model_path() : options.model, options.device,
+      options.run.threads);
+}
+
 EstimateResult estimate_nhnet(const Points& points, const EstimateOptions& options) {
   if (options.nhnet_batch < 1) throw InvalidOptions("nhnet batch must be >= 1");
   // Load first: a missing or mismatched model fails before the long geometry stage.
-  std::shared_ptr<const NhNetModel> loaded = options.loaded_model;
-  if (!loaded)
-    loaded = std::make_shared<const NhNetModel>(
-        options.model.empty() ? default_model_path() : options.model, options.device,
-        options.run.threads);
+  const std::shared_ptr<const NhNetModel> loaded = model_for(options);
   const NhNetModel& model = *loaded;
   DescriptorOptions dopt;
   dopt.estimate = options;

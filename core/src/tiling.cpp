@@ -66,21 +66,27 @@ void split(const Points& pts, std::vector<int64_t>& order, int64_t begin, int64_
   split(pts, order, mid, end, parts - left, leaves);
 }
 
-// Rows of pts (ascending) within `halo` of the bounding box of the points owned by tile t.
-std::vector<int64_t> tile_rows(const Points& pts, const std::vector<int32_t>& owner, int32_t t,
-                               double halo) {
-  const Eigen::Index m = pts.rows();
+// Bounding box of each leaf's points (one pass over the owners).
+struct Box {
   Eigen::RowVector3d lo = Eigen::RowVector3d::Constant(std::numeric_limits<double>::infinity());
-  Eigen::RowVector3d hi = -lo;
-  for (Eigen::Index i = 0; i < m; ++i)
-    if (owner[size_t(i)] == t) {
-      lo = lo.cwiseMin(pts.row(i));
-      hi = hi.cwiseMax(pts.row(i));
-    }
-  lo.array() -= halo;
-  hi.array() += halo;
+  Eigen::RowVector3d hi = Eigen::RowVector3d::Constant(-std::numeric_limits<double>::infinity());
+};
+
+std::vector<Box> leaf_boxes(const Points& pts, const std::vector<int32_t>& owner, size_t leaves) {
+  std::vector<Box> boxes(leaves);
+  for (Eigen::Index i = 0; i < pts.rows(); ++i) {
+    Box& b = boxes[size_t(owner[size_t(i)])];
+    b.lo = b.lo.cwiseMin(pts.row(i));
+    b.hi = b.hi.cwiseMax(pts.row(i));
+  }
+  return boxes;
+}
+
+// Rows of pts (ascending) within `halo` of `box`.
+std::vector<int64_t> tile_rows(const Points& pts, const Box& box, double halo) {
+  const Eigen::RowVector3d lo = box.lo.array() - halo, hi = box.hi.array() + halo;
   std::vector<int64_t> rows;
-  for (Eigen::Index i = 0; i < m; ++i)
+  for (Eigen::Index i = 0; i < pts.rows(); ++i)
     if ((pts.row(i).array() >= lo.array()).all() && (pts.row(i).array() <= hi.array()).all())
       rows.push_back(i);
   return rows;
@@ -143,6 +149,7 @@ EstimateResult estimate_tiled(const Points& points, const EstimateOptions& optio
   for (size_t t = 0; t < leaves.size(); ++t)
     for (int64_t i = leaves[t].begin; i < leaves[t].end; ++i) owner[size_t(order[size_t(i)])] = int32_t(t);
   std::vector<int64_t>().swap(order);
+  const std::vector<Box> boxes = leaf_boxes(pts, owner, leaves.size());
 
   EstimateOptions o = options;
   o.tile_points = 0;
@@ -150,10 +157,7 @@ EstimateResult estimate_tiled(const Points& points, const EstimateOptions& optio
     o.known_noise_ratio = probe.noise.ratio;
     o.known_spacing = probe.noise.spacing;  // tiles are given normalised coordinates
   }
-  if (options.method == Method::NhNet && !o.loaded_model)  // load once for every tile
-    o.loaded_model = std::make_shared<const NhNetModel>(
-        options.model.empty() ? default_model_path() : options.model, options.device,
-        options.run.threads);
+  if (options.method == Method::NhNet) o.loaded_model = model_for(options);  // once for all tiles
 
   // Pass 1 (MFPS, NH-Net): the candidate threshold is chosen from the histogram of the whole
   // cloud's surface variations (feature_detection.hpp), so every point's variation is computed
@@ -163,7 +167,7 @@ EstimateResult estimate_tiled(const Points& points, const EstimateOptions& optio
     Eigen::VectorXd variation = Eigen::VectorXd::Constant(m, nan);
     const int k = int(std::min<Eigen::Index>(choice.k_smooth, m));
     for (size_t t = 0; t < leaves.size(); ++t) {
-      const std::vector<int64_t> rows = tile_rows(pts, owner, int32_t(t), options.tile_halo * radius(k));
+      const std::vector<int64_t> rows = tile_rows(pts, boxes[t], options.tile_halo * radius(k));
       const Points tile = gather(pts, rows);
       const RunContext r = narrow(run, 0.04 + span1 * double(t) / double(leaves.size()),
                                   0.04 + span1 * double(t + 1) / double(leaves.size()));
@@ -181,7 +185,7 @@ EstimateResult estimate_tiled(const Points& points, const EstimateOptions& optio
   for (size_t t = 0; t < leaves.size(); ++t) {
     // The tile: its own points and every point within `halo` of their bounding box, in
     // canonical order.
-    const std::vector<int64_t> rows = tile_rows(pts, owner, int32_t(t), halo);
+    const std::vector<int64_t> rows = tile_rows(pts, boxes[t], halo);
     const Points tile = gather(pts, rows);
     o.run = narrow(run, begin + span * double(t), begin + span * double(t + 1));
     EstimateResult tr = estimate_normals(tile, o);
@@ -208,7 +212,8 @@ EstimateResult estimate_tiled(const Points& points, const EstimateOptions& optio
   res.noise_ratio = need_probe ? probe.noise.ratio : 0;
   res.spacing = need_probe ? probe.noise.spacing * canon.unit : 0;
   finish_result(res, canon.copies, canon.finite_count);
-  for (const int64_t row : canon.rows) res.candidates += res.candidate.empty() ? 0 : res.candidate[size_t(row)];
+  if (!res.candidate.empty())
+    for (const int64_t row : canon.rows) res.candidates += res.candidate[size_t(row)];
   if (run.progress) {
     top.stage("done", 1, 1);
     top.throw_if_cancelled();

@@ -84,10 +84,11 @@ TEST(Tiling, PcaWithNonFiniteAndDuplicatePoints) {
   Points p(f.points.rows() + 300, 3);
   p.topRows(f.points.rows()) = f.points;
   for (int i = 0; i < 300; ++i) {
-    if (i % 3 == 0)
+    if (i % 3 == 0) {
       p.row(f.points.rows() + i).setConstant(std::numeric_limits<double>::quiet_NaN());
-    else
+    } else {
       p.row(f.points.rows() + i) = f.points.row((i * 37) % f.points.rows());  // a duplicate
+    }
   }
   EstimateOptions o;
   o.method = Method::Pca;

@@ -33,7 +33,8 @@ struct FeatureDetectionOptions {
 struct FeatureDetection {
   /// N flags, 1 = candidate point near a sharp feature.
   std::vector<uint8_t> candidate;
-  /// Threshold on the normalised variation that was applied.
+  /// Threshold on the normalised variation that was applied (NaN with fixed_threshold, which
+  /// applies no normalisation).
   double threshold = 0;
   /// The same threshold on the variation itself (threshold x the normalising quantile; +inf
   /// when nothing can be a candidate): what fixed_threshold takes.

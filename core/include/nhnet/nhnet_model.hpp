@@ -48,6 +48,10 @@ class NhNetModel {
   std::unique_ptr<Impl> impl_;
 };
 
+/// options.loaded_model, or else the model options.model (empty = default_model_path()) loaded
+/// for options.device and options.run.threads.
+std::shared_ptr<const NhNetModel> model_for(const EstimateOptions& options);
+
 /// The whole NH-Net pipeline: MFPS, descriptors, the model (options.model, empty = the default
 /// model), world normals = R^T * output. Used by estimate_normals for Method::NhNet.
 EstimateResult estimate_nhnet(const Points& points, const EstimateOptions& options);
