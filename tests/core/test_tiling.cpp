@@ -101,8 +101,9 @@ TEST(Tiling, PcaWithNonFiniteAndDuplicatePoints) {
   EXPECT_EQ(tiled.warnings, whole.warnings);
   EXPECT_LT(share_differing(tiled, whole, 1e-3), 0.005);
   for (int i = 0; i < 300; ++i) {
-    if (i % 3 != 0)
+    if (i % 3 != 0) {
       EXPECT_EQ(tiled.normals.row(f.points.rows() + i), tiled.normals.row((i * 37) % f.points.rows()));
+    }
   }
 }
 
