@@ -4,6 +4,7 @@
 
 #include "nhnet/errors.hpp"
 #include "nhnet/pca.hpp"
+#include "fast_math.hpp"
 #include "parallel.hpp"
 
 #include <Eigen/Eigenvalues>
@@ -66,14 +67,7 @@ bool four_point_plane(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const 
     const Eigen::Vector3d e = *p - m;
     cov.noalias() += e * e.transpose();
   }
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
-  es.computeDirect(cov);
-  const Eigen::Vector3d ev = es.eigenvalues();
-  if (!(ev[1] > 1e-12 * std::max(ev[2], 1e-300))) return false;
-  Eigen::Vector3d n = es.eigenvectors().col(0);
-  const double nn = n.norm();
-  if (!(nn > 0.5)) return false;
-  out.n = n / nn;
+  if (!detail::smallest_eigenvector(cov, 1e-12, out.n)) return false;
   out.c = m;
   return true;
 }
@@ -83,21 +77,18 @@ bool four_point_plane(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const 
 /// IRLS weights of that plane, so the refinement does not recompute them.
 double objective(const std::vector<Eigen::Vector3d>& q, const Plane& pl, double inv_s2,
                  const std::vector<int>* idx, double* terms = nullptr) {
+  thread_local std::vector<double> arg;
+  const size_t m = idx ? idx->size() : q.size();
+  arg.resize(m);
+  for (size_t t = 0; t < m; ++t) {
+    const double r = (q[idx ? size_t((*idx)[t]) : t] - pl.c).dot(pl.n);
+    arg[t] = -r * r * inv_s2;
+  }
+  double* kernel = terms ? terms : arg.data();
+  detail::exp_nonpositive(arg.data(), kernel, m);
   double e = 0;
-  if (idx) {
-    for (int k : *idx) {
-      const double r = (q[size_t(k)] - pl.c).dot(pl.n);
-      e += std::exp(-r * r * inv_s2);
-    }
-    return e / double(idx->size());
-  }
-  for (size_t k = 0; k < q.size(); ++k) {
-    const double r = (q[k] - pl.c).dot(pl.n);
-    const double t = std::exp(-r * r * inv_s2);
-    if (terms) terms[k] = t;
-    e += t;
-  }
-  return e / double(q.size());
+  for (size_t t = 0; t < m; ++t) e += kernel[t];
+  return e / double(m);
 }
 
 /// P(point p lies on face B) for two faces meeting at the edge line of planes (n1, c1) and
@@ -252,10 +243,7 @@ MfpsResult mfps_normals(const Points& points, const IndexMatrix& knn, const Eige
       // IRLS: weighted PCA with the Gaussian weights of the current plane increases E.
       for (int it = 0; it < options.refine_iterations; ++it) {
         if (!have_w) {
-          for (int t = 0; t < K; ++t) {
-            const double r = (q[size_t(t)] - best.c).dot(best.n);
-            best_w[size_t(t)] = std::exp(-r * r * inv_s2);
-          }
+          objective(q, best, inv_s2, nullptr, best_w.data());
           have_w = true;
         }
         Plane next;

@@ -1,0 +1,132 @@
+// Two kernels of MFPS's plane stage (paper Eq. 1-2), which were 40 % of its time as library calls:
+// exp of the Gaussian kernels, and the smallest eigenpair of the 4-point planes' 3x3 covariances.
+//
+// exp_nonpositive: exp(x) for a batch of arguments x <= 0.
+// Range reduction x = k ln2 + r (|r| <= ln2 / 2, Cody-Waite split of ln2), a degree-11 Taylor
+// polynomial for exp(r) (truncation < 7e-15 relative), and 2^k from the exponent bits. Relative
+// error against std::exp below 1e-14 for every x in [-708, 0] (tests/core/test_fast_math.cpp);
+// arguments below -708 give exp(-708) ~ 3e-308 instead of a smaller number or 0, which no sum of
+// kernels can tell apart. NaN stays NaN. Two lanes at a time with SSE2 (baseline x86-64); the
+// scalar path is the same sequence of IEEE operations, so both give the same bits (no FMA: the
+// project builds for baseline x86-64, where the compiler cannot contract a * b + c).
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <cstring>
+
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
+namespace nhnet::detail {
+
+namespace fast_exp_constants {
+constexpr double kLog2e = 1.4426950408889634;
+constexpr double kShifter = 6755399441055744.0;  // 1.5 * 2^52: x + kShifter rounds x to an integer
+constexpr double kLn2Hi = 6.93145751953125e-1;   // ln 2 = kLn2Hi + kLn2Lo, kLn2Hi exact in 11 bits
+constexpr double kLn2Lo = 1.42860682030941723212e-6;
+constexpr double kLowest = -708.0;
+// 1 / n! for n = 11 .. 2 (Horner from the top)
+constexpr double kC[10] = {1.0 / 39916800, 1.0 / 3628800, 1.0 / 362880, 1.0 / 40320, 1.0 / 5040,
+                           1.0 / 720,      1.0 / 120,     1.0 / 24,     1.0 / 6,     0.5};
+}  // namespace fast_exp_constants
+
+/// exp of one argument x <= 0 (see the file comment); same bits as exp_nonpositive's lanes.
+inline double exp_nonpositive(double x) {
+  namespace c = fast_exp_constants;
+  x = c::kLowest < x ? x : (x != x ? x : c::kLowest);  // clamp, NaN kept
+  double kd = x * c::kLog2e + c::kShifter;
+  uint64_t bits;
+  std::memcpy(&bits, &kd, sizeof bits);
+  kd = kd - c::kShifter;
+  const double r = (x - kd * c::kLn2Hi) - kd * c::kLn2Lo;
+  double p = c::kC[0];
+  for (int i = 1; i < 10; ++i) p = p * r + c::kC[i];
+  p = (p * r + 1.0) * r + 1.0;
+  const uint64_t sbits = (bits + 1023u) << 52;
+  double scale;
+  std::memcpy(&scale, &sbits, sizeof scale);
+  return p * scale;
+}
+
+/// y[i] = exp(x[i]) for i < n, every x[i] <= 0 (see the file comment). x and y may alias.
+inline void exp_nonpositive(const double* x, double* y, size_t n) {
+  size_t i = 0;
+#if defined(__SSE2__)
+  namespace c = fast_exp_constants;
+  const __m128d lowest = _mm_set1_pd(c::kLowest), log2e = _mm_set1_pd(c::kLog2e),
+                shifter = _mm_set1_pd(c::kShifter), ln2hi = _mm_set1_pd(c::kLn2Hi),
+                ln2lo = _mm_set1_pd(c::kLn2Lo), one = _mm_set1_pd(1.0);
+  const __m128i bias = _mm_set1_epi64x(1023);
+  for (; i + 2 <= n; i += 2) {
+    __m128d v = _mm_loadu_pd(x + i);
+    // max(lowest, v) returns v when v is NaN, as the scalar path keeps NaN.
+    v = _mm_max_pd(lowest, v);
+    __m128d kd = _mm_add_pd(_mm_mul_pd(v, log2e), shifter);
+    const __m128i bits = _mm_castpd_si128(kd);
+    kd = _mm_sub_pd(kd, shifter);
+    const __m128d r = _mm_sub_pd(_mm_sub_pd(v, _mm_mul_pd(kd, ln2hi)), _mm_mul_pd(kd, ln2lo));
+    __m128d p = _mm_set1_pd(c::kC[0]);
+    for (int t = 1; t < 10; ++t) p = _mm_add_pd(_mm_mul_pd(p, r), _mm_set1_pd(c::kC[t]));
+    p = _mm_add_pd(_mm_mul_pd(_mm_add_pd(_mm_mul_pd(p, r), one), r), one);
+    const __m128d scale = _mm_castsi128_pd(_mm_slli_epi64(_mm_add_epi64(bits, bias), 52));
+    _mm_storeu_pd(y + i, _mm_mul_pd(p, scale));
+  }
+#endif
+  for (; i < n; ++i) y[i] = exp_nonpositive(x[i]);
+}
+
+/// Smallest eigenvalue's unit eigenvector of a symmetric positive semi-definite 3 x 3 matrix `a`
+/// (a 3x3 covariance). False when `a` is not finite or zero, or when its middle eigenvalue is
+/// not above `rel_tol` x its largest (the points are collinear: no plane), or when the smallest
+/// eigenvalue is double (no unique normal). The smallest root of the characteristic polynomial
+/// g(l) = det(l I - a) is found by Newton's method from l = 0: g is increasing and concave below
+/// its smallest root, so the iterates rise monotonically to it (quadratically for a simple root);
+/// the eigenvector is the largest cross product of two rows of a - l I. Replaces Eigen's
+/// computeDirect (atan2, sin, cos for all three roots) where only the normal is needed.
+inline bool smallest_eigenvector(const Eigen::Matrix3d& a_in, double rel_tol, Eigen::Vector3d& n) {
+  const double scale = a_in.cwiseAbs().maxCoeff();
+  if (!(scale > 0) || !std::isfinite(scale)) return false;
+  const Eigen::Matrix3d a = a_in / scale;
+  const double c2 = a.trace();
+  const double c1 = a(0, 0) * a(1, 1) - a(0, 1) * a(1, 0) + a(0, 0) * a(2, 2) - a(0, 2) * a(2, 0) +
+                    a(1, 1) * a(2, 2) - a(1, 2) * a(2, 1);
+  const double c0 = a.determinant();
+  double l = 0;
+  for (int it = 0; it < 200; ++it) {
+    const double g = ((l - c2) * l + c1) * l - c0;
+    const double dg = (3 * l - 2 * c2) * l + c1;
+    if (!(dg > 0) || !(g < 0)) break;
+    const double next = l - g / dg;
+    if (!(next > l)) break;
+    const bool done = next - l <= 1e-15 * c2;
+    l = next;
+    if (done) break;
+  }
+  // The other two eigenvalues: their sum and product from the polynomial's coefficients.
+  const double p = c2 - l, q = c1 - l * p;
+  const double big = 0.5 * (p + std::sqrt(std::max(p * p - 4 * q, 0.0)));
+  const double mid = big > 0 ? q / big : 0;
+  if (!(mid > rel_tol * big)) return false;
+  const Eigen::Matrix3d m = a - l * Eigen::Matrix3d::Identity();
+  const Eigen::Vector3d r0 = m.row(0).transpose(), r1 = m.row(1).transpose(),
+                        r2 = m.row(2).transpose();
+  const Eigen::Vector3d x01 = r0.cross(r1), x02 = r0.cross(r2), x12 = r1.cross(r2);
+  const double d01 = x01.squaredNorm(), d02 = x02.squaredNorm(), d12 = x12.squaredNorm();
+  const Eigen::Vector3d& best = d01 >= d02 ? (d01 >= d12 ? x01 : x12) : (d02 >= d12 ? x02 : x12);
+  const double bn = std::max(d01, std::max(d02, d12));
+  // The cross products of m's rows are the columns of its adjugate, (mid - l)(big - l) v v^T
+  // (v: the eigenvector), so the largest has squared norm >= ((mid - l)(big - l))^2 / 3; rounding
+  // makes them ~1e-16 (a is scaled to 1). Below 1e-24 the smallest eigenvalue is (nearly) double.
+  if (!(bn > 1e-24)) return false;
+  n = best / std::sqrt(bn);
+  return true;
+}
+
+}  // namespace nhnet::detail
