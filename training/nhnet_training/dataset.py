@@ -100,11 +100,14 @@ def build_dataset(cfg: TrainConfig, cache_dir: Path, log=print) -> Dict[str, np.
     parts, names = [], []
     t0 = time.time()
     for i, c in enumerate(clouds):
-        f = cache_dir / f"{c['name']}.npz"
+        # Everything the cached samples depend on besides the core is in the name: a run with
+        # another samples_per_cloud or seed computes its own (it once reused 4000-point files).
+        seed = cfg.seed * 1000003 + i
+        f = cache_dir / f"{c['name']}-n{cfg.samples_per_cloud}-r{seed}.npz"
         if not f.exists():
             folder = Path(cfg.data_dir) / "train"
             s = cloud_samples(folder / f"{c['name']}.xyz", folder / f"{c['name']}.normals", cfg,
-                              seed=cfg.seed * 1000003 + i, threads=cfg.threads)
+                              seed=seed, threads=cfg.threads)
             tmp = f.with_suffix(".tmp.npz")
             np.savez(tmp, **s)
             os.replace(tmp, f)
