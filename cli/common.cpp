@@ -363,7 +363,11 @@ std::string orient_summary(const nhnet::OrientOptions& opt, const nhnet::OrientR
          std::to_string(r.completed) + " completed, ";
   if (opt.mode != nhnet::OrientMode::Keep || r.unoriented > 0)
     s += std::to_string(r.unoriented) + " unoriented, ";
-  return s + std::to_string(r.flipped) + " flipped)";
+  s += std::to_string(r.flipped) + " flipped";
+  if (opt.mode == nhnet::OrientMode::Mst && opt.inside_outside)
+    s += r.voxel > 0 ? ", " + std::to_string(r.inside_outside_votes) + " sided by the flood fill"
+                     : ", open: the tree alone";
+  return s + ")";
 }
 
 std::string orient_json(const nhnet::OrientOptions& opt, const nhnet::OrientResult& r) {
@@ -373,7 +377,10 @@ std::string orient_json(const nhnet::OrientOptions& opt, const nhnet::OrientResu
                   ", \"components\": " + std::to_string(r.components) +
                   ", \"unoriented_components\": " + std::to_string(r.unoriented_components) +
                   ", \"completed\": " + std::to_string(r.completed);
-  if (opt.mode == nhnet::OrientMode::Mst) s += ", \"orient_k\": " + std::to_string(opt.k);
+  if (opt.mode == nhnet::OrientMode::Mst)
+    s += ", \"orient_k\": " + std::to_string(opt.k) +
+         ", \"inside_outside_votes\": " + std::to_string(r.inside_outside_votes) +
+         ", \"voxel\": " + json_number(r.voxel, 17);
   if (opt.mode == nhnet::OrientMode::Viewpoint)
     s += ", \"viewpoint\": [" + json_number(opt.viewpoint[0], 17) + ", " +
          json_number(opt.viewpoint[1], 17) + ", " + json_number(opt.viewpoint[2], 17) + "]";

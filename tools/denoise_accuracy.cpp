@@ -68,6 +68,8 @@ int main(int argc, char** argv) {
       obase.outward_vote = std::atoi(argv[++a]) != 0;
     } else if (arg == "--orient-reflect-noise" && a + 1 < argc) {
       obase.reflect_noise = std::atof(argv[++a]);
+    } else if (arg == "--orient-inside-outside" && a + 1 < argc) {
+      obase.inside_outside = std::atoi(argv[++a]) != 0;
     } else if (arg == "--orient-k" && a + 1 < argc) {
       obase.k = std::atoi(argv[++a]);
     } else if (arg == "--stop-drop" && a + 1 < argc) {
@@ -80,7 +82,7 @@ int main(int argc, char** argv) {
       std::fprintf(stderr,
                    "usage: denoise_accuracy [--methods pca,mfps,nhnet,gt] [--radius-factors 3] "
                    "[--iterations 5,20] [--cache DIR] [--sheet-gap G] [--orient-reflect 0|1] "
-                   "[--orient-guide-k K (0 = no guide)] [--orient-k K] BASE...\n");
+                   "[--orient-guide-k K (0 = no guide)] [--orient-k K] [--orient-inside-outside 0|1] BASE...\n");
       return 2;
     } else {
       bases.push_back(arg);

@@ -91,6 +91,13 @@ void register_orient(py::module_& m) {
       .def_property_readonly("completed", core_field<PyOrientResult>(&OrientResult::completed),
                              "'mst': points CGAL left out inside a connected component, oriented "
                              "from a neighbour.")
+      .def_property_readonly("inside_outside_votes",
+                             core_field<PyOrientResult>(&OrientResult::inside_outside_votes),
+                             "'mst': points whose side the voxel flood fill decided (0 when the "
+                             "cloud is open).")
+      .def_property_readonly("voxel", core_field<PyOrientResult>(&OrientResult::voxel),
+                             "'mst': voxel size of the flood fill's grid (points' units; 0 = no "
+                             "watertight grid, the tree alone decided).")
       .def("__repr__", [](const PyOrientResult& r) {
         return "<nhnet.OrientResult flipped=" + std::to_string(r.core.flipped) +
                " unoriented=" + std::to_string(r.core.unoriented) +

@@ -76,6 +76,32 @@ inline Fixture cube(int n, double noise, unsigned seed) {
   return f;
 }
 
+/// A closed slab [-1, 1]^2 x [-t, t] sampled uniformly by area (its six faces), outward face
+/// normals, Gaussian noise `noise` (absolute units) on every coordinate: a thin wall when 2t is
+/// a few point spacings.
+inline Fixture slab(int n, double t, double noise, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  std::normal_distribution<double> g(0.0, noise > 0 ? noise : 1.0);
+  const double big = 4.0, small = 4.0 * t;  // area of a large face and of a side face
+  std::discrete_distribution<int> face({big, big, small, small, small, small});
+  Fixture f;
+  f.points.resize(n, 3);
+  f.normals.resize(n, 3);
+  for (int i = 0; i < n; ++i) {
+    const int fc = face(rng);
+    Eigen::Vector3d q(u(rng), u(rng), u(rng) * t), nrm = Eigen::Vector3d::Zero();
+    const double side = (fc % 2) ? 1.0 : -1.0;
+    const int axis = fc < 2 ? 2 : (fc < 4 ? 0 : 1);
+    q[axis] = axis == 2 ? side * t : side;
+    nrm[axis] = side;
+    if (noise > 0) q += Eigen::Vector3d(g(rng), g(rng), g(rng));
+    f.points.row(i) = q.transpose();
+    f.normals.row(i) = nrm.transpose();
+  }
+  return f;
+}
+
 /// `normals` with each row flipped with probability 1/2 (unoriented normals).
 inline nhnet::Normals random_signs(nhnet::Normals normals, unsigned seed) {
   std::mt19937 rng(seed);

@@ -120,43 +120,71 @@ TEST(Orient, MstOnTheBenchmarkSample) {
 }
 
 TEST(Orient, MstKeepsTheTwoSidesOfAThinWallApart) {
-  // A closed slab [-1,1]^2 x [-t,t], 2t = 2 spacings (like the rotor's blades), noise 10 % of
-  // the spacing, exact normals with random signs, propagated directly (no guide: the default
-  // guide's 50-point PCA straddles such a wall and cannot turn round its rim; measured 0.74
-  // with it). The k-NN graph links the two sides; Hoppe's n_i . n_j = -1 there copies the sign
-  // through the wall (measured 0.50), the mirrored criterion keeps both sides outward (1.0).
-  const double t = 0.02, noise = 0.002;
-  const int n = 20000;
-  std::mt19937 rng(7);
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
-  std::normal_distribution<double> g(0.0, noise);
-  const double big = 4.0, small = 4.0 * t;  // area of a large face and of a side face
-  std::discrete_distribution<int> face({big, big, small, small, small, small});
-  Points p(n, 3);
-  Normals truth(n, 3);
-  for (int i = 0; i < n; ++i) {
-    const int fc = face(rng);
-    Eigen::Vector3d q(u(rng), u(rng), u(rng) * t), nrm = Eigen::Vector3d::Zero();
-    const double side = (fc % 2) ? 1.0 : -1.0;
-    const int axis = fc < 2 ? 2 : (fc < 4 ? 0 : 1);
-    q[axis] = axis == 2 ? side * t : side;
-    nrm[axis] = side;
-    p.row(i) = (q + Eigen::Vector3d(g(rng), g(rng), g(rng))).transpose();
-    truth.row(i) = nrm.transpose();
-  }
+  // The tree alone (no flood fill) on a closed slab [-1,1]^2 x [-t,t], 2t = 2 spacings (like the
+  // rotor's blades), noise 10 % of the spacing, exact normals with random signs, propagated
+  // directly (no guide). The k-NN graph links the two sides; Hoppe's n_i . n_j = -1 there
+  // copies the sign through the wall (measured 0.50), the mirrored criterion keeps both sides
+  // outward (1.0).
+  const fixtures::Fixture f = fixtures::slab(20000, 0.02, 0.002, 7);
+  const Normals& truth = f.normals;
   Normals m = fixtures::random_signs(truth, 3);
   OrientOptions o;
   o.smooth_guide = false;
-  const OrientResult r = orient_normals(p, m, o);
+  o.inside_outside = false;
+  const OrientResult r = orient_normals(f.points, m, o);
   EXPECT_EQ(r.components, 1);
+  EXPECT_EQ(r.inside_outside_votes, 0);
   EXPECT_GE(agreement(m, truth), 0.99);
   Normals h = fixtures::random_signs(truth, 3);
   OrientOptions hoppe = o;
   hoppe.reflect = false;
-  orient_normals(p, h, hoppe);
+  orient_normals(f.points, h, hoppe);
   EXPECT_LT(agreement(h, truth), 0.9);  // what the test can tell apart
   std::printf("thin wall: %.4f outward (Hoppe's criterion %.4f)\n", agreement(m, truth),
               agreement(h, truth));
+}
+
+TEST(Orient, FloodFillOrientsAThinWallWithTheDefaultGuide) {
+  // The same slab with the defaults: the 50-point PCA guide straddles the wall (its normals
+  // turn wrong at the rim, the tree alone measured 0.74); the flood fill decides each point's
+  // side on its own (measured 1.0). 0.99: the bar of issue 5 for closed models.
+  const fixtures::Fixture f = fixtures::slab(20000, 0.02, 0.002, 7);
+  Normals m = fixtures::random_signs(f.normals, 3);
+  const OrientResult r = orient_normals(f.points, m, OrientOptions{});
+  EXPECT_GT(r.voxel, 0.0);
+  EXPECT_GT(r.inside_outside_votes, 19000);
+  EXPECT_GE(agreement(m, f.normals), 0.99);
+  Normals tree = fixtures::random_signs(f.normals, 3);
+  OrientOptions alone;
+  alone.inside_outside = false;
+  orient_normals(f.points, tree, alone);
+  EXPECT_LT(agreement(tree, f.normals), 0.9);  // what the test can tell apart
+  std::printf("thin wall, default guide: flood fill %.4f, tree alone %.4f\n",
+              agreement(m, f.normals), agreement(tree, f.normals));
+}
+
+EstimateOptions pca_options() {
+  EstimateOptions o;
+  o.method = Method::Pca;
+  return o;
+}
+
+TEST(Orient, FloodFillLeavesAnOpenSurfaceToTheTree) {
+  // An open height field: the fill reaches both sides, no grid is watertight, no point gets a
+  // vote and the result is exactly the tree's.
+  auto f = fixtures::plane(5000, 9);
+  for (Eigen::Index i = 0; i < f.points.rows(); ++i)
+    f.points(i, 2) = 0.2 * std::sin(2 * f.points(i, 0)) * std::cos(2 * f.points(i, 1));
+  const Normals start = fixtures::random_signs(
+      estimate_normals(f.points, pca_options()).normals, 4);
+  Normals with = start, without = start;
+  const OrientResult r = orient_normals(f.points, with, OrientOptions{});
+  EXPECT_EQ(r.voxel, 0.0);
+  EXPECT_EQ(r.inside_outside_votes, 0);
+  OrientOptions alone;
+  alone.inside_outside = false;
+  orient_normals(f.points, without, alone);
+  EXPECT_TRUE(with == without);
 }
 
 TEST(Orient, ViewpointFacesTheSensor) {

@@ -1,0 +1,64 @@
+// Internal to the orientation stage (orient.cpp): which side of a closed surface is outside,
+// decided per point by a voxel flood fill (not a paper stage; issue 5). The points are
+// rasterised into an occupancy grid (voxel h = a few point spacings, dilated so the sampled
+// surface is watertight), the empty space reachable from the grid's border is flood-filled:
+// that is the outside. A normal n_i points outward when p_i + s h n_i lands in the outside and
+// p_i - s h n_i does not, for the first step s that tells the two apart. Unlike a propagated
+// orientation it is decided at every point on its own, so one weak link cannot flip a region,
+// and it holds across thin walls (the other side of a blade is occupied or enclosed, never
+// outside). Where the fill leaks into the interior (an open scan, a hole wider than the
+// dilation) both offsets reach the outside: the grid is then coarsened step by step, and when
+// no grid is watertight no point gets a vote.
+#pragma once
+
+#include "nhnet/types.hpp"
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+namespace nhnet::detail {
+
+struct InsideOutsideOptions {
+  /// Voxel sizes tried, in point spacings, finest first; the first watertight one is used.
+  std::vector<double> voxel_spacings{1.5, 2, 2.5, 3, 4, 6};
+  /// Dilation of the occupied voxels (6-connected steps) that closes the gaps between samples.
+  int dilation = 2;
+  /// A grid is watertight when fewer than this share of the points have both offsets outside.
+  double max_leak = 0.05;
+  /// Largest grid side in voxels (the voxel grows for large clouds; memory <= side^3 bytes).
+  int max_side = 384;
+};
+
+/// The flood-filled grid of a cloud, and the votes it gives.
+class InsideOutside {
+ public:
+  /// Builds the first watertight grid for `points` (M x 3, finite) with unit normals `normals`
+  /// (M x 3), `spacing` the average distance to the nearest other point (> 0), and votes for
+  /// each of the M normals (votes()).
+  InsideOutside(const Points& points, const Normals& normals, double spacing,
+                const InsideOutsideOptions& options = {});
+  ~InsideOutside();
+  InsideOutside(const InsideOutside&) = delete;
+  InsideOutside& operator=(const InsideOutside&) = delete;
+
+  /// M votes for the normals given to the constructor: +1 points outward, -1 inward, 0
+  /// undecided (all 0 when no grid was watertight).
+  const std::vector<int8_t>& votes() const { return votes_; }
+  /// The vote for normal `n` (unit) at position `p` on the grid used (0 when none).
+  int8_t vote(const Eigen::RowVector3d& p, const Eigen::RowVector3d& n) const;
+  /// Voxel size used (points' units); 0 when no grid was watertight (an open cloud).
+  double voxel() const;
+  /// Share of the points whose both offsets reached the outside on the grid used (on the
+  /// coarsest grid tried when none was watertight).
+  double leak() const { return leak_; }
+
+  struct Grid;
+
+ private:
+  std::unique_ptr<Grid> grid_;
+  std::vector<int8_t> votes_;
+  double leak_ = 1;
+};
+
+}  // namespace nhnet::detail

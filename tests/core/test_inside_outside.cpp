@@ -1,0 +1,78 @@
+// Inside / outside votes of the flood fill (core/src/inside_outside.hpp): outward normals of
+// closed surfaces (sphere, noisy cube, thin slab) vote +1 and their negatives -1, a normal
+// tangent to the surface gets no vote, an open surface has no watertight grid and no votes.
+#include "fixtures.hpp"
+
+#include "inside_outside.hpp"
+
+#include <gtest/gtest.h>
+
+using nhnet::Normals;
+using nhnet::Points;
+using nhnet::detail::InsideOutside;
+
+namespace {
+
+// Mean distance to the nearest other point.
+double spacing(const Points& pts) {
+  const nhnet::IndexMatrix knn = fixtures::knn_table(pts, 2);
+  double s = 0;
+  for (Eigen::Index i = 0; i < pts.rows(); ++i) s += (pts.row(knn(i, 1)) - pts.row(i)).norm();
+  return s / double(pts.rows());
+}
+
+// Shares of +1 and -1 votes.
+std::pair<double, double> shares(const std::vector<int8_t>& votes) {
+  double plus = 0, minus = 0;
+  for (const int8_t v : votes) {
+    plus += v > 0;
+    minus += v < 0;
+  }
+  return {plus / double(votes.size()), minus / double(votes.size())};
+}
+
+}  // namespace
+
+TEST(InsideOutside, ClosedSurfacesVoteOutward) {
+  // Each closed fixture: every outward normal decided +1 (0.999: a handful of points in a
+  // cube's corners may stay undecided, none may vote wrong), every inward one -1.
+  const fixtures::Fixture closed[] = {fixtures::sphere(20000, 1), fixtures::cube(20000, 0.01, 2),
+                                      fixtures::slab(20000, 0.02, 0.002, 3)};
+  for (const fixtures::Fixture& f : closed) {
+    const double s = spacing(f.points);
+    const InsideOutside out(f.points, f.normals, s);
+    ASSERT_GT(out.voxel(), 0.0);
+    EXPECT_LT(out.leak(), 0.05);
+    EXPECT_GE(shares(out.votes()).first, 0.999);
+    EXPECT_EQ(shares(out.votes()).second, 0.0);
+    const Normals inward = -f.normals;
+    const InsideOutside in(f.points, inward, s);
+    EXPECT_GE(shares(in.votes()).second, 0.999);
+    EXPECT_EQ(shares(in.votes()).first, 0.0);
+    // The single-normal query agrees with the votes, and a normal tangent to the sphere's
+    // surface (both offsets stay in the occupied shell or both leave it) gets none.
+    EXPECT_EQ(out.vote(f.points.row(0), f.normals.row(0)), out.votes()[0]);
+  }
+  const fixtures::Fixture s = fixtures::sphere(20000, 1);
+  const InsideOutside out(s.points, s.normals, spacing(s.points));
+  const Eigen::RowVector3d p(1, 0, 0), tangent(0, 0, 1);
+  EXPECT_EQ(out.vote(p, tangent), 0);
+  EXPECT_EQ(out.vote(p, Eigen::RowVector3d(1, 0, 0)), 1);
+  EXPECT_EQ(out.vote(p, Eigen::RowVector3d(-1, 0, 0)), -1);
+}
+
+TEST(InsideOutside, OpenSurfaceHasNoWatertightGrid) {
+  const fixtures::Fixture f = fixtures::plane(10000, 5);
+  const InsideOutside io(f.points, f.normals, spacing(f.points));
+  EXPECT_EQ(io.voxel(), 0.0);
+  EXPECT_GE(io.leak(), 0.05);
+  EXPECT_EQ(shares(io.votes()).first + shares(io.votes()).second, 0.0);
+  EXPECT_EQ(io.vote(f.points.row(0), f.normals.row(0)), 0);
+}
+
+TEST(InsideOutside, TooFewPointsOrNoSpacingGiveNoVotes) {
+  const fixtures::Fixture f = fixtures::sphere(3, 1);
+  EXPECT_EQ(InsideOutside(f.points, f.normals, 0.1).voxel(), 0.0);
+  const fixtures::Fixture g = fixtures::sphere(100, 1);
+  EXPECT_EQ(InsideOutside(g.points, g.normals, 0.0).voxel(), 0.0);
+}
