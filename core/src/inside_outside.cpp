@@ -1,12 +1,13 @@
 // Inside / outside votes from a voxel flood fill (see inside_outside.hpp; not a paper stage).
 #include "inside_outside.hpp"
 
+#include "parallel.hpp"
+
 #include <Eigen/Geometry>
 
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <deque>
 
 namespace nhnet::detail {
 
@@ -94,44 +95,43 @@ Grid build_grid(const Points& pts, double h, int dilation) {
   g.cell.assign(size_t(g.dims[0] * g.dims[1] * g.dims[2]), 0);
   for (Eigen::Index i = 0; i < pts.rows(); ++i) g.cell[size_t(g.locate(pts.row(i)))] = 1;
 
-  // Dilation by 6-connected steps (a diamond of radius `dilation`).
-  const int64_t stride[3] = {g.dims[1] * g.dims[2], g.dims[2], 1};
-  std::vector<uint8_t> next;
+  // Dilation by 6-connected steps (a diamond of radius `dilation`), one linear pass each: a
+  // neighbour across a row's end is a padding voxel of the next row, empty like the one it
+  // stands for (the padding is wider than the dilation), so the wrap changes nothing.
+  const int64_t total = int64_t(g.cell.size());
+  const int64_t sx = g.dims[1] * g.dims[2], sy = g.dims[2];
+  std::vector<uint8_t> next(g.cell.size(), 0);
   for (int it = 0; it < dilation; ++it) {
-    next = g.cell;
-    for (int64_t x = 1; x + 1 < g.dims[0]; ++x)
-      for (int64_t y = 1; y + 1 < g.dims[1]; ++y)
-        for (int64_t z = 1; z + 1 < g.dims[2]; ++z) {
-          const int64_t c = g.index(x, y, z);
-          if (g.cell[size_t(c)]) continue;
-          for (const int64_t s : stride)
-            if (g.cell[size_t(c - s)] || g.cell[size_t(c + s)]) {
-              next[size_t(c)] = 1;
-              break;
-            }
-        }
+    const uint8_t* c = g.cell.data();
+    uint8_t* o = next.data();
+    for (int64_t i = sx; i < total - sx; ++i)
+      o[i] = c[i] | c[i - 1] | c[i + 1] | c[i - sy] | c[i + sy] | c[i - sx] | c[i + sx];
     g.cell.swap(next);
   }
 
   // Flood fill of the empty space connected (6-neighbours) to the corner voxel, which the
-  // padding keeps empty; breadth first, so the queue holds one wavefront, not the volume.
-  std::deque<int64_t> queue{0};
+  // padding keeps empty; breadth first, one wavefront at a time (the fronts hold a surface's
+  // worth of voxels, not the volume).
+  const int64_t stride[3] = {sx, sy, 1};
+  std::vector<int64_t> front{0}, grown;
   g.cell[0] = 2;
-  while (!queue.empty()) {
-    const int64_t c = queue.front();
-    queue.pop_front();
-    const int64_t z = c % g.dims[2], y = (c / g.dims[2]) % g.dims[1], x = c / stride[0];
-    const int64_t coord[3] = {x, y, z};
-    for (int a = 0; a < 3; ++a) {
-      if (coord[a] > 0 && g.cell[size_t(c - stride[a])] == 0) {
-        g.cell[size_t(c - stride[a])] = 2;
-        queue.push_back(c - stride[a]);
-      }
-      if (coord[a] + 1 < g.dims[size_t(a)] && g.cell[size_t(c + stride[a])] == 0) {
-        g.cell[size_t(c + stride[a])] = 2;
-        queue.push_back(c + stride[a]);
+  while (!front.empty()) {
+    grown.clear();
+    for (const int64_t c : front) {
+      const int64_t z = c % g.dims[2], y = (c / g.dims[2]) % g.dims[1], x = c / sx;
+      const int64_t coord[3] = {x, y, z};
+      for (int a = 0; a < 3; ++a) {
+        if (coord[a] > 0 && g.cell[size_t(c - stride[a])] == 0) {
+          g.cell[size_t(c - stride[a])] = 2;
+          grown.push_back(c - stride[a]);
+        }
+        if (coord[a] + 1 < g.dims[size_t(a)] && g.cell[size_t(c + stride[a])] == 0) {
+          g.cell[size_t(c + stride[a])] = 2;
+          grown.push_back(c + stride[a]);
+        }
       }
     }
+    front.swap(grown);
   }
   return g;
 }
@@ -139,7 +139,7 @@ Grid build_grid(const Points& pts, double h, int dilation) {
 }  // namespace
 
 InsideOutside::InsideOutside(const Points& points, const Normals& normals, double spacing,
-                             const InsideOutsideOptions& options) {
+                             const InsideOutsideOptions& options, int threads) {
   const Eigen::Index m = points.rows();
   votes_.assign(size_t(m), 0);
   if (m < 4 || !(spacing > 0)) return;
@@ -152,12 +152,14 @@ InsideOutside::InsideOutside(const Points& points, const Normals& normals, doubl
     if (h <= last_h) continue;  // capped by max_side: the same grid again
     last_h = h;
     auto g = std::make_unique<Grid>(build_grid(points, h, options.dilation));
+    std::vector<uint8_t> leaked(static_cast<size_t>(m), 0);
+    parallel_for(m, threads, nullptr, [&](int64_t i) {
+      bool l = false;
+      votes[size_t(i)] = grid_vote(*g, points.row(i), normals.row(i), &l);
+      leaked[size_t(i)] = l ? 1 : 0;
+    });
     int64_t both = 0;
-    for (Eigen::Index i = 0; i < m; ++i) {
-      bool leaked = false;
-      votes[size_t(i)] = grid_vote(*g, points.row(i), normals.row(i), &leaked);
-      both += leaked ? 1 : 0;
-    }
+    for (const uint8_t l : leaked) both += l;
     leak_ = double(both) / double(m);
     if (leak_ < options.max_leak) {
       votes_.swap(votes);

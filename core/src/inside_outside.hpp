@@ -35,9 +35,9 @@ class InsideOutside {
  public:
   /// Builds the first watertight grid for `points` (M x 3, finite) with unit normals `normals`
   /// (M x 3), `spacing` the average distance to the nearest other point (> 0), and votes for
-  /// each of the M normals (votes()).
+  /// each of the M normals (votes()) on `threads` threads (0 = all cores).
   InsideOutside(const Points& points, const Normals& normals, double spacing,
-                const InsideOutsideOptions& options = {});
+                const InsideOutsideOptions& options = {}, int threads = 0);
   ~InsideOutside();
   InsideOutside(const InsideOutside&) = delete;
   InsideOutside& operator=(const InsideOutside&) = delete;

@@ -214,7 +214,9 @@ std::vector<uint8_t> orient_mst(const Points& points, Normals& normals,
       }
     }
     if (counted > 0) spacing /= double(counted);
-    sides = std::make_unique<detail::InsideOutside>(pts, guide, spacing);
+    sides = std::make_unique<detail::InsideOutside>(pts, guide, spacing,
+                                                    detail::InsideOutsideOptions{},
+                                                    options.run.threads);
     res.voxel = sides->voxel();
     std::vector<int8_t> vote = sides->votes();
     for (Eigen::Index i = 0; i < m; ++i)
@@ -236,11 +238,14 @@ std::vector<uint8_t> orient_mst(const Points& points, Normals& normals,
       }
       vote.swap(keep);
     }
-    for (Eigen::Index i = 0; i < m; ++i) {
-      if (vote[size_t(i)] == 0) continue;
-      ++res.inside_outside_votes;
-      visit(int32_t(i));
-    }
+    // All decided points are marked first, so only edges into undecided points enter the heap.
+    for (Eigen::Index i = 0; i < m; ++i)
+      if (vote[size_t(i)] != 0) {
+        visited[size_t(i)] = 1;
+        ++res.inside_outside_votes;
+      }
+    for (Eigen::Index i = 0; i < m; ++i)
+      if (vote[size_t(i)] != 0) visit(int32_t(i));
     drain(nullptr);
   }
 
