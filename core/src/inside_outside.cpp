@@ -145,10 +145,13 @@ InsideOutside::InsideOutside(const Points& points, const Normals& normals, doubl
   if (m < 4 || !(spacing > 0)) return;
   const Eigen::RowVector3d extent = points.colwise().maxCoeff() - points.colwise().minCoeff();
   const double floor_h = extent.maxCoeff() / double(std::max(8, options.max_side));
+  // An extent beyond the double range (coordinates near +-1e308) has no grid: no votes.
+  if (!std::isfinite(floor_h)) return;
   double last_h = 0;
   std::vector<int8_t> votes(static_cast<size_t>(m));
   for (const double factor : options.voxel_spacings) {
     const double h = std::max(factor * spacing, floor_h);
+    if (!std::isfinite(h) || !(h > 0)) break;
     if (h <= last_h) continue;  // capped by max_side: the same grid again
     last_h = h;
     auto g = std::make_unique<Grid>(build_grid(points, h, options.dilation));

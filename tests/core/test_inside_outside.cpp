@@ -71,6 +71,12 @@ TEST(InsideOutside, OpenSurfaceHasNoWatertightGrid) {
 }
 
 TEST(InsideOutside, TooFewPointsOrNoSpacingGiveNoVotes) {
+  // Also a sphere whose extent overflows double (radius 1e308): no grid, no votes, no crash.
+  fixtures::Fixture huge = fixtures::sphere(1000, 2);
+  huge.points *= 1e308;
+  const InsideOutside none(huge.points, huge.normals, 1e306);
+  EXPECT_EQ(none.voxel(), 0.0);
+  EXPECT_EQ(shares(none.votes()).first + shares(none.votes()).second, 0.0);
   const fixtures::Fixture f = fixtures::sphere(3, 1);
   EXPECT_EQ(InsideOutside(f.points, f.normals, 0.1).voxel(), 0.0);
   const fixtures::Fixture g = fixtures::sphere(100, 1);
