@@ -77,19 +77,29 @@ std::vector<uint8_t> orient_mst(const Points& points, Normals& normals,
   if (options.run.progress) progress.stage("orient: neighbours", 0, 0.3);
   std::vector<std::vector<int32_t>> adj(static_cast<size_t>(m));
   double noise = 0;  // typical offset of a neighbour from a point's guide plane
+  double spacing = 0;  // mean distance to the nearest other point (the flood fill's unit)
   if (m > 1) {
     const Neighbors tree(pts);
     RunContext sub;
     sub.threads = options.run.threads;
     IndexMatrix knn;
     tree.knn_all(k, knn, nullptr, sub);
-    for (Eigen::Index i = 0; i < m; ++i)
+    int64_t counted = 0;
+    for (Eigen::Index i = 0; i < m; ++i) {
+      double nearest = std::numeric_limits<double>::infinity();
       for (Eigen::Index c = 1; c < knn.cols(); ++c) {
         const int32_t j = knn(i, c);
         if (j == int32_t(i)) continue;
         adj[size_t(i)].push_back(j);
         adj[size_t(j)].push_back(int32_t(i));
+        nearest = std::min(nearest, (pts.row(j) - pts.row(i)).norm());
       }
+      if (std::isfinite(nearest)) {
+        spacing += nearest;
+        ++counted;
+      }
+    }
+    if (counted > 0) spacing /= double(counted);
     for (auto& a : adj) {
       std::sort(a.begin(), a.end());
       a.erase(std::unique(a.begin(), a.end()), a.end());
@@ -203,17 +213,6 @@ std::vector<uint8_t> orient_mst(const Points& points, Normals& normals,
   // most confident path to a decided one.
   std::unique_ptr<detail::InsideOutside> sides;
   if (options.inside_outside && m >= 4) {
-    double spacing = 0;
-    int64_t counted = 0;
-    for (Eigen::Index i = 0; i < m; ++i) {
-      double best = std::numeric_limits<double>::infinity();
-      for (int32_t j : adj[size_t(i)]) best = std::min(best, (pts.row(j) - pts.row(i)).norm());
-      if (std::isfinite(best)) {
-        spacing += best;
-        ++counted;
-      }
-    }
-    if (counted > 0) spacing /= double(counted);
     sides = std::make_unique<detail::InsideOutside>(pts, guide, spacing,
                                                     detail::InsideOutsideOptions{},
                                                     options.run.threads);
