@@ -88,3 +88,30 @@ def test_export_zeroes_tiny_weights(tmp_path):
     assert all(int(((t.abs() < TINY_WEIGHT) & (t != 0)).sum()) == 0 for t in params)
     assert float(dict(m.named_parameters())["branches.2.weight"].view(-1)[20]) == pytest.approx(1e-3)
     assert torch.allclose(m(x), before, atol=1e-6)
+
+
+def test_select_clouds_levels_per_model(tmp_path):
+    from nhnet_training.dataset import select_clouds
+
+    levels = [0.0, 0.05, 0.1, 0.2, 0.3, 0.6, 1.2]
+    models = [f"m{i}" for i in range(5)]
+    clouds = [{"name": f"{m}_noise{lev}", "model": m, "noise_percent": lev, "variant": "uniform"}
+              for m in models for lev in levels]
+    (tmp_path / "train").mkdir()
+    (tmp_path / "train" / "index.json").write_text(json.dumps({"clouds": clouds}))
+    base = dict(data_dir=str(tmp_path), noise_levels=levels, variants=["uniform"])
+
+    def pairs(cfg):
+        return [(c["model"], c["noise_percent"]) for c in select_clouds(cfg)]
+
+    two = pairs(TrainConfig(**base))
+    # Default: two distinct levels per model, one cloud of every model before the second ones.
+    assert len(two) == 2 * len(models) and len(set(two)) == len(two)
+    assert [m for m, _ in two[:len(models)]] == models
+    assert {lev for _, lev in two} == set(levels)
+    every = pairs(TrainConfig(levels_per_model=0, **base))
+    assert sorted(every) == sorted((m, lev) for m in models for lev in levels)
+    assert sorted(pairs(TrainConfig(levels_per_model=len(levels), **base))) == sorted(every)
+    three = pairs(TrainConfig(levels_per_model=3, **base))
+    assert len(three) == 3 * len(models) and len(set(three)) == len(three)
+    assert pairs(TrainConfig(levels_per_model=3, max_clouds=7, **base)) == three[:7]

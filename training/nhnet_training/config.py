@@ -29,6 +29,7 @@ class TrainConfig:
     samples_per_cloud: int = 4000              # random points kept per training cloud
     val_fraction: float = 0.15                 # per point, as the authors (85/15)
     max_clouds: int = 0                        # 0 = all matching clouds
+    levels_per_model: int = 2                  # noise levels kept per model (0 = all of them)
     cache: str = ""                            # .npz of the built dataset ("" = none)
     # network (authors: 64/128 channels, 1.34M parameters per cluster network)
     conv1: int = 16

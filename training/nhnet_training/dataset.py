@@ -21,8 +21,9 @@ TEST_ONLY_PREFIXES = ("fandisk", "armadillo", "bunny", "cube")
 
 
 def select_clouds(cfg: TrainConfig) -> List[dict]:
-    """Clouds of the train split used for training: every model gets two of the configured noise
-    levels (cycled over the models), so all levels are covered at less cost."""
+    """Clouds of the train split used for training: every model gets `levels_per_model` of the
+    configured noise levels (cycled over the models, two apart), so all levels are covered at
+    less cost; 0 (or at least as many as there are levels) keeps every level of every model."""
     index = json.loads((Path(cfg.data_dir) / "train" / "index.json").read_text())
     clouds = [c for c in index["clouds"] if c["variant"] in cfg.variants]
     for c in clouds:
@@ -30,9 +31,13 @@ def select_clouds(cfg: TrainConfig) -> List[dict]:
             raise ValueError(f"test-only model {c['model']} in the training split")
     models = sorted({c["model"] for c in clouds})
     levels = list(cfg.noise_levels)
-    rounds = [[], []] if len(levels) > 2 else [[] for _ in levels]
+    per_model = cfg.levels_per_model if 0 < cfg.levels_per_model < len(levels) else len(levels)
+    rounds: List[List[dict]] = [[] for _ in range(per_model)]
     for i, m in enumerate(models):
-        want = [levels[i % len(levels)], levels[(i + 2) % len(levels)]] if len(levels) > 2 else levels
+        if per_model == len(levels):
+            want = levels
+        else:
+            want = list(dict.fromkeys(levels[(i + 2 * r) % len(levels)] for r in range(per_model)))
         for r, lev in enumerate(want):
             rounds[r] += [c for c in clouds if c["model"] == m and c["noise_percent"] == lev]
     # One cloud of every model first, then the second ones: a prefix (max_clouds) covers all models.
