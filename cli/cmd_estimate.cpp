@@ -11,6 +11,7 @@
 #include "nhnet/io.hpp"
 #include "nhnet/nhnet_model.hpp"
 #include "nhnet/orient.hpp"
+#include "nhnet/stream.hpp"
 #include "nhnet/version.hpp"
 #include "sha256.hpp"
 
@@ -47,6 +48,8 @@ struct EstimateArgs {
   std::string seed = "1";
   std::string model;            // empty = the shipped model
   std::string device = "auto";  // NH-Net device
+  bool stream = false;          // --stream: out of core, XYZ input
+  std::string temp_dir;         // --temp-dir (stream)
   bool ascii = false, overwrite = false, quiet = false, json = false;
 };
 
@@ -116,6 +119,62 @@ void load_model(const EstimateArgs& a, Setup& st) {
   // always names the device.
   if (a.device == "auto" && !a.method.empty() && !a.quiet)
     std::cerr << "nhnet-cli: NH-Net runs on " << st.device << " (--device auto)" << std::endl;
+}
+
+/// --stream: the out-of-core estimate (stream.hpp); same summary and JSON as run_one.
+void run_one_stream(const EstimateArgs& a, const Setup& st, const std::string& in,
+                    const std::string& out, Outcome& o) {
+  Reporter rep(a.quiet);
+  check_output(in, out, a.overwrite);
+  nhnet::StreamOptions so;
+  so.estimate = st.opt;
+  so.orient = st.orient;
+  so.temp_dir = a.temp_dir;
+  so.ascii = a.ascii;
+  if (a.orient.empty()) {  // keep when the input has normals, else none (mst needs the whole cloud)
+    so.orient.mode = nhnet::OrientMode::Keep;
+    so.warn_keep_without_normals = false;
+  }
+  so.estimate.run.progress = rep.callback(0.0, 1.0);
+  const nhnet::StreamResult res = nhnet::estimate_stream(in, out, so);
+  rep.clear();
+  for (const auto& w : res.warnings) rep.warn(w);
+  throw_if_interrupted();
+  nhnet::OrientOptions shown = so.orient;
+  shown.mode = res.orient_mode;  // keep falls back to none when the input has no normals
+  warn_unoriented(rep, shown, res.orient);
+  o.points = res.points;
+  o.failed = res.failed;
+  o.seconds = rep.elapsed();
+  const char* method = nhnet::to_string(st.opt.method);
+  char noise[32], secs[32];
+  std::snprintf(noise, sizeof noise, "%.3g", res.noise_ratio);
+  std::snprintf(secs, sizeof secs, "%.2f", o.seconds);
+  if (!a.quiet && !a.json) {
+    std::ostringstream line;
+    line << "nhnet-cli: " << res.points << " points, " << res.failed << " failed, method "
+         << method << (st.opt.method == nhnet::Method::NhNet ? " on " + st.device : std::string())
+         << ", k " << res.k_used << ", scales "
+         << (res.scales_used.empty() ? std::string("-") : join(res.scales_used, "/"))
+         << ", noise ratio " << noise << ", " << res.candidates << " candidates, streamed in "
+         << res.tiles << " tiles, orient " << orient_summary(shown, res.orient) << ", " << secs
+         << " s, output " << out;
+    std::cerr << line.str() << std::endl;
+  }
+  if (a.json) {
+    std::ostringstream js;
+    js << "{\"input\": " << json_string(in) << ", \"output\": " << json_string(out)
+       << ", \"points\": " << res.points << ", \"failed\": " << res.failed
+       << ", \"method\": " << json_string(method) << ", \"k\": " << res.k_used
+       << ", \"scales\": [" << join(res.scales_used, ", ") << "]"
+       << ", \"noise_ratio\": " << json_number(res.noise_ratio)
+       << ", \"spacing\": " << json_number(res.spacing)
+       << ", \"candidates\": " << res.candidates << ", \"tiles\": " << res.tiles
+       << ", \"streamed\": true, " << orient_json(shown, res.orient)
+       << ", \"warnings\": " << res.warnings.size()
+       << ", \"seconds\": " << json_number(o.seconds, 4) << "}";
+    std::cout << js.str() << std::endl;
+  }
 }
 
 /// Reads IN, estimates, orients and writes OUT; fills `o`. Throws on failure.
@@ -201,7 +260,10 @@ void run_one(const EstimateArgs& a, const Setup& st, const std::string& in, cons
 /// run_one naming the file on exit-4 and exit-7 errors.
 void run_one_named(const EstimateArgs& a, const Setup& st, const std::string& in,
                    const std::string& out, Outcome& o) {
-  naming_file(in, [&] { run_one(a, st, in, out, o); });
+  naming_file(in, [&] {
+    if (a.stream) run_one_stream(a, st, in, out, o);
+    else run_one(a, st, in, out, o);
+  });
 }
 
 /// --report: one JSON object (temporary file + rename, so a reader never sees half of it).
@@ -348,6 +410,19 @@ int run_estimate(const EstimateArgs& a) {
   if (!batch && (!a.ext.empty() || a.fail_fast))
     throw nhnet::InvalidOptions("--ext and --fail-fast only apply with -o DIR");
   Setup st = prepare(a);
+  if (a.stream) {
+    if (st.orient.mode == nhnet::OrientMode::Mst && !a.orient.empty())
+      throw nhnet::InvalidOptions("--orient mst needs the whole cloud in memory; with --stream "
+                                  "use none, keep or viewpoint X Y Z");
+    if (st.opt.tile_points <= 0)
+      throw nhnet::InvalidOptions("--stream needs --tile-points > 0");
+    const std::string out = batch ? "x." + (a.ext.empty() ? std::string("xyzn") : a.ext) : a.files[1];
+    const nhnet::FileFormat f = nhnet::format_from_extension(out);
+    if (f != nhnet::FileFormat::Ply && f != nhnet::FileFormat::Xyz)
+      throw nhnet::InvalidOptions("--stream writes .ply or .xyz/.xyzn/.txt, not " + out);
+  } else if (!a.temp_dir.empty()) {
+    throw nhnet::InvalidOptions("--temp-dir only applies with --stream");
+  }
   if (!batch) check_output_format(a.files[1]);
   if (!a.ext.empty()) check_output_format("x." + a.ext);
   if (!st.fallback_why.empty() && !a.quiet)
@@ -429,6 +504,15 @@ Command add_estimate_command(CLI::App& parent) {
                   "with overlapping halos: same normals, memory bounded by one tile; 0 = never "
                   "(default: 1000000)")
       ->type_name("N");
+  sub->add_flag("--stream", args->stream,
+                 "Out of core, for clouds larger than memory: read the XYZ text input in passes "
+                 "and process it tile by tile (--tile-points) through temporary files; same "
+                 "normals as in memory; output .ply or .xyz/.xyzn (x y z nx ny nz); orientation "
+                 "keep (default when the input has normals, else none) or viewpoint");
+  sub->add_option("--temp-dir", args->temp_dir,
+                  "--stream: folder for the temporary tile files, ~48 bytes per point (default: "
+                  "the output's folder)")
+      ->type_name("DIR");
   sub->add_option("--orient", args->orient,
                   "keep: agree with the input's normals (default when the input has normals); "
                   "mst[:K]: consistent over each connected part by a minimum spanning tree over "
@@ -448,7 +532,8 @@ Command add_estimate_command(CLI::App& parent) {
       "  nhnet-cli estimate scan.xyz out.pcd --method pca --k 30 --threads 4\n"
       "  nhnet-cli estimate noisy.xyz out.xyzn --scales 50,100,150 --json\n"
       "  nhnet-cli estimate scan.ply out.ply --orient viewpoint 0 0 1.5\n"
-      "  nhnet-cli estimate scans/ extra.ply -o out/ --ext ply --report report.json\n\n"
+      "  nhnet-cli estimate scans/ extra.ply -o out/ --ext ply --report report.json\n"
+      "  nhnet-cli estimate survey.xyz survey.ply --stream --temp-dir /scratch\n\n"
       "Exit codes: 0 ok, 2 bad parameter, 3 bad input, 4 too few finite points, 5 bad model,\n"
       "6 cannot write output, 7 out of memory, 8 device unavailable, 10 some batch inputs\n"
       "failed, 130 SIGINT, 143 SIGTERM.\n");

@@ -342,6 +342,100 @@ void write_rows(Sink& sink, const std::vector<Column>& cols, Eigen::Index rows, 
   sink.write(out);
 }
 
+// ---------------------------------------------------------------------------------------------
+// Atomic writing
+
+AtomicFile::AtomicFile(const std::string& target) : target_(target) {
+  namespace fs = std::filesystem;
+  const fs::path p(target);
+  if (p.filename().empty()) output_error(target, "not a file name");
+  fs::path dir = p.parent_path();
+  if (dir.empty()) dir = ".";
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec))
+    output_error(target, "directory '" + dir.string() + "' does not exist");
+  if (fs::is_directory(p, ec)) output_error(target, std::strerror(EISDIR));
+  open_temp(dir, p.filename().string());
+}
+
+AtomicFile::~AtomicFile() {
+  if (fd_ >= 0) ::close(fd_);
+  if (!committed_ && !temp_.empty()) ::unlink(temp_.c_str());
+}
+
+void AtomicFile::write(const char* data, size_t size) {
+  buffer_.append(data, size);
+  if (buffer_.size() >= kFlushBytes) flush();
+}
+
+void AtomicFile::commit() {
+  flush();
+  if (::fsync(fd_) != 0) fail("fsync failed");
+  const int fd = fd_;
+  fd_ = -1;
+  if (::close(fd) != 0) fail("close failed");
+  if (::rename(temp_.c_str(), target_.c_str()) != 0) fail("rename failed");
+  committed_ = true;
+  sync_directory();
+}
+
+void AtomicFile::fail(const std::string& what) {
+  const int err = errno;
+  output_error(target_, what + ": " + std::strerror(err));
+}
+
+// Creates `<dir>/.<name>.nhnet-tmp-<pid>-<random>` exclusively; keeps an existing target's
+// permission bits.
+void AtomicFile::open_temp(const std::filesystem::path& dir, const std::string& name) {
+  std::random_device device;
+  for (int attempt = 0; attempt < 16 && fd_ < 0; ++attempt) {
+    const uint64_t r = (uint64_t(device()) << 32) ^ device();
+    char suffix[32];
+    const auto end = std::to_chars(suffix, suffix + sizeof(suffix), r, 16).ptr;
+    temp_ = (dir / ("." + name + ".nhnet-tmp-" + std::to_string(::getpid()) + "-" +
+                    std::string(suffix, end)))
+                .string();
+    fd_ = ::open(temp_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+    if (fd_ < 0 && errno != EEXIST) {
+      temp_.clear();
+      fail("cannot create a file in '" + dir.string() + "'");
+    }
+  }
+  if (fd_ < 0) {
+    temp_.clear();
+    output_error(target_, "cannot create a unique temporary file");
+  }
+  struct stat st {};
+  if (::stat(target_.c_str(), &st) == 0 && S_ISREG(st.st_mode))
+    ::fchmod(fd_, st.st_mode & 07777);  // best effort: keep the original's permissions
+}
+
+// Writes the buffer out completely (retrying short writes and EINTR).
+void AtomicFile::flush() {
+  size_t done = 0;
+  while (done < buffer_.size()) {
+    const ssize_t n = ::write(fd_, buffer_.data() + done, buffer_.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) fail("write failed");
+    if (n == 0) {
+      errno = ENOSPC;
+      fail("write failed");
+    }
+    done += size_t(n);
+  }
+  buffer_.clear();
+}
+
+// Makes the rename durable; failures are ignored (the data itself is already synced).
+void AtomicFile::sync_directory() {
+  std::filesystem::path dir = std::filesystem::path(target_).parent_path();
+  if (dir.empty()) dir = ".";
+  const int dfd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (dfd < 0) return;
+  (void)::fsync(dfd);
+  ::close(dfd);
+}
+
 }  // namespace io_detail
 
 using namespace io_detail;
@@ -450,120 +544,7 @@ Cloud read_cloud(const std::string& path, const ReadOptions& options,
 }
 
 // ---------------------------------------------------------------------------------------------
-// Atomic writing
-
-namespace {
-
-/// A temporary file next to the target, renamed over it by commit(). The destructor removes the
-/// temporary if commit() did not complete. Writes are buffered and every system call checked.
-class AtomicFile final : public Sink {
- public:
-  explicit AtomicFile(const std::string& target) : target_(target) {
-    namespace fs = std::filesystem;
-    const fs::path p(target);
-    if (p.filename().empty()) output_error(target, "not a file name");
-    fs::path dir = p.parent_path();
-    if (dir.empty()) dir = ".";
-    std::error_code ec;
-    if (!fs::is_directory(dir, ec))
-      output_error(target, "directory '" + dir.string() + "' does not exist");
-    if (fs::is_directory(p, ec)) output_error(target, std::strerror(EISDIR));
-    open_temp(dir, p.filename().string());
-  }
-
-  ~AtomicFile() override {
-    if (fd_ >= 0) ::close(fd_);
-    if (!committed_ && !temp_.empty()) ::unlink(temp_.c_str());
-  }
-
-  AtomicFile(const AtomicFile&) = delete;
-  AtomicFile& operator=(const AtomicFile&) = delete;
-
-  void write(const char* data, size_t size) override {
-    buffer_.append(data, size);
-    if (buffer_.size() >= kFlushBytes) flush();
-  }
-
-  /// Flushes, fsyncs and closes the temporary, then renames it over the target.
-  void commit() {
-    flush();
-    if (::fsync(fd_) != 0) fail("fsync failed");
-    const int fd = fd_;
-    fd_ = -1;
-    if (::close(fd) != 0) fail("close failed");
-    if (::rename(temp_.c_str(), target_.c_str()) != 0) fail("rename failed");
-    committed_ = true;
-    sync_directory();
-  }
-
- private:
-  static constexpr size_t kFlushBytes = size_t(1) << 20;
-
-  [[noreturn]] void fail(const std::string& what) {
-    const int err = errno;
-    output_error(target_, what + ": " + std::strerror(err));
-  }
-
-  /// Creates `<dir>/.<name>.nhnet-tmp-<pid>-<random>` exclusively; keeps an existing target's
-  /// permission bits.
-  void open_temp(const std::filesystem::path& dir, const std::string& name) {
-    std::random_device device;
-    for (int attempt = 0; attempt < 16 && fd_ < 0; ++attempt) {
-      const uint64_t r = (uint64_t(device()) << 32) ^ device();
-      char suffix[32];
-      const auto end = std::to_chars(suffix, suffix + sizeof(suffix), r, 16).ptr;
-      temp_ = (dir / ("." + name + ".nhnet-tmp-" + std::to_string(::getpid()) + "-" +
-                      std::string(suffix, end)))
-                  .string();
-      fd_ = ::open(temp_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
-      if (fd_ < 0 && errno != EEXIST) {
-        temp_.clear();
-        fail("cannot create a file in '" + dir.string() + "'");
-      }
-    }
-    if (fd_ < 0) {
-      temp_.clear();
-      output_error(target_, "cannot create a unique temporary file");
-    }
-    struct stat st {};
-    if (::stat(target_.c_str(), &st) == 0 && S_ISREG(st.st_mode))
-      ::fchmod(fd_, st.st_mode & 07777);  // best effort: keep the original's permissions
-  }
-
-  /// Writes the buffer out completely (retrying short writes and EINTR).
-  void flush() {
-    size_t done = 0;
-    while (done < buffer_.size()) {
-      const ssize_t n = ::write(fd_, buffer_.data() + done, buffer_.size() - done);
-      if (n < 0 && errno == EINTR) continue;
-      if (n < 0) fail("write failed");
-      if (n == 0) {
-        errno = ENOSPC;
-        fail("write failed");
-      }
-      done += size_t(n);
-    }
-    buffer_.clear();
-  }
-
-  /// Makes the rename durable; failures are ignored (the data itself is already synced).
-  void sync_directory() {
-    std::filesystem::path dir = std::filesystem::path(target_).parent_path();
-    if (dir.empty()) dir = ".";
-    const int dfd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-    if (dfd < 0) return;
-    (void)::fsync(dfd);
-    ::close(dfd);
-  }
-
-  std::string target_;
-  std::string temp_;
-  std::string buffer_;
-  int fd_ = -1;
-  bool committed_ = false;
-};
-
-}  // namespace
+// Writing
 
 void write_cloud(const std::string& path, const Cloud& cloud, const WriteOptions& options) {
   const FileFormat format =

@@ -12,6 +12,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
+#include <filesystem>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -91,6 +92,24 @@ bool parse_count(std::string_view token, uint64_t max, uint64_t& value);
 std::string quote_token(std::string_view token);
 
 // ---------------------------------------------------------------------------------------------
+// XYZ text lines (io_xyz.cpp; also the streaming reader of stream.cpp)
+
+/// Most columns accepted on one XYZ line (bounds the work spent on a garbage line).
+constexpr size_t kMaxXyzColumns = 4096;
+
+/// Parses the numbers of one XYZ data line, appending them to `values`; returns their count.
+/// `expected` = 0: any count up to kMaxXyzColumns; else exactly that many (a ragged line is an
+/// InputError naming `path` and `line_no`).
+size_t parse_xyz_line(const std::string& path, std::string_view line, size_t line_no,
+                      size_t expected, std::vector<double>& values);
+
+/// True when the line is a lone non-negative integer (a .pts point count).
+bool is_xyz_count_line(std::string_view line, uint64_t& count);
+
+/// Next line with data (not blank, not a '#' comment); false at the end.
+bool next_xyz_data_line(LineCursor& lines, std::string_view& line);
+
+// ---------------------------------------------------------------------------------------------
 // Scalars
 
 /// Size in bytes of a scalar type.
@@ -129,6 +148,35 @@ class Sink {
   /// Appends bytes; may buffer.
   virtual void write(const char* data, size_t size) = 0;
   void write(const std::string& s) { write(s.data(), s.size()); }
+};
+
+/// A temporary file `<dir>/.<name>.nhnet-tmp-<pid>-<random>` next to `target`, renamed over it
+/// by commit(); the destructor removes the temporary if commit() did not complete. Writes are
+/// buffered and every system call checked (OutputError naming the target).
+class AtomicFile final : public Sink {
+ public:
+  explicit AtomicFile(const std::string& target);
+  ~AtomicFile() override;
+  AtomicFile(const AtomicFile&) = delete;
+  AtomicFile& operator=(const AtomicFile&) = delete;
+
+  void write(const char* data, size_t size) override;
+  using Sink::write;
+  /// Flushes, fsyncs and closes the temporary, then renames it over the target.
+  void commit();
+
+ private:
+  static constexpr size_t kFlushBytes = size_t(1) << 20;
+  [[noreturn]] void fail(const std::string& what);
+  void open_temp(const std::filesystem::path& dir, const std::string& name);
+  void flush();
+  void sync_directory();
+
+  std::string target_;
+  std::string temp_;
+  std::string buffer_;
+  int fd_ = -1;
+  bool committed_ = false;
 };
 
 /// Validates that `cloud` can be written (sizes agree, extra names usable); throws OutputError

@@ -10,53 +10,7 @@
 namespace nhnet::io_detail {
 namespace {
 
-/// Most columns accepted on one line (bounds the work spent on a garbage line).
-constexpr size_t kMaxColumns = 4096;
-
 std::string at_line(size_t line) { return " (line " + std::to_string(line) + ")"; }
-
-/// Parses the numbers of one data line, appending them to `values`; returns their count.
-size_t parse_line(const FileBytes& file, std::string_view line, size_t line_no,
-                  size_t expected, std::vector<double>& values) {
-  Tokens tokens(line);
-  std::string_view t;
-  size_t n = 0;
-  const size_t limit = expected ? expected : kMaxColumns;
-  while (tokens.next(t)) {
-    if (++n > limit) break;
-    double v = 0;
-    if (!parse_double(t, v))
-      input_error(file.path, "malformed number " + quote_token(t) + " in column " + std::to_string(n) +
-                                 at_line(line_no));
-    values.push_back(v);
-  }
-  if (n > limit && !expected)
-    input_error(file.path, "more than " + std::to_string(kMaxColumns) + " columns" + at_line(line_no));
-  if (expected && n != expected) {
-    while (tokens.next(t)) ++n;
-    input_error(file.path, "ragged line: " + std::to_string(n) + " columns, expected " +
-                               std::to_string(expected) + " like the first data line" +
-                               at_line(line_no));
-  }
-  return n;
-}
-
-/// True when the line is a lone non-negative integer (a .pts point count).
-bool is_count_line(std::string_view line, uint64_t& count) {
-  Tokens tokens(line);
-  std::string_view t;
-  return tokens.next(t) && parse_count(t, kMaxCount, count) && tokens.done();
-}
-
-/// Next line with data (not blank, not a '#' comment); false at the end.
-bool next_data_line(LineCursor& lines, std::string_view& line) {
-  while (lines.next(line)) {
-    Tokens tokens(line);
-    std::string_view t;
-    if (tokens.next(t) && t[0] != '#') return true;
-  }
-  return false;
-}
 
 /// An empty cloud of `n` points with `columns` per point (normals from 6 columns on).
 Cloud allocate(size_t n, size_t columns) {
@@ -85,6 +39,49 @@ void store(Cloud& cloud, size_t i, const double* row, size_t columns) {
 
 }  // namespace
 
+// Parses the numbers of one data line, appending them to `values`; returns their count.
+size_t parse_xyz_line(const std::string& path, std::string_view line, size_t line_no,
+                  size_t expected, std::vector<double>& values) {
+  Tokens tokens(line);
+  std::string_view t;
+  size_t n = 0;
+  const size_t limit = expected ? expected : kMaxXyzColumns;
+  while (tokens.next(t)) {
+    if (++n > limit) break;
+    double v = 0;
+    if (!parse_double(t, v))
+      input_error(path, "malformed number " + quote_token(t) + " in column " + std::to_string(n) +
+                                 at_line(line_no));
+    values.push_back(v);
+  }
+  if (n > limit && !expected)
+    input_error(path, "more than " + std::to_string(kMaxXyzColumns) + " columns" + at_line(line_no));
+  if (expected && n != expected) {
+    while (tokens.next(t)) ++n;
+    input_error(path, "ragged line: " + std::to_string(n) + " columns, expected " +
+                               std::to_string(expected) + " like the first data line" +
+                               at_line(line_no));
+  }
+  return n;
+}
+
+// True when the line is a lone non-negative integer (a .pts point count).
+bool is_xyz_count_line(std::string_view line, uint64_t& count) {
+  Tokens tokens(line);
+  std::string_view t;
+  return tokens.next(t) && parse_count(t, kMaxCount, count) && tokens.done();
+}
+
+// Next line with data (not blank, not a '#' comment); false at the end.
+bool next_xyz_data_line(LineCursor& lines, std::string_view& line) {
+  while (lines.next(line)) {
+    Tokens tokens(line);
+    std::string_view t;
+    if (tokens.next(t) && t[0] != '#') return true;
+  }
+  return false;
+}
+
 // Two passes over the bytes: the first finds the columns (first data line) and counts the data
 // lines, the second parses every line straight into the cloud, so memory is the file plus the
 // cloud (no growing intermediate array of every value: at 10M points that was 2-3x the cloud).
@@ -97,8 +94,8 @@ Cloud read_xyz(const FileBytes& file, std::vector<std::string>* warnings) {
     std::string_view line;
     std::vector<double> values;
     bool first = true;
-    while (next_data_line(lines, line)) {
-      if (first && is_count_line(line, declared)) {
+    while (next_xyz_data_line(lines, line)) {
+      if (first && is_xyz_count_line(line, declared)) {
         first = false;
         has_declared = true;
         continue;
@@ -106,7 +103,7 @@ Cloud read_xyz(const FileBytes& file, std::vector<std::string>* warnings) {
       first = false;
       if (columns == 0) {
         const size_t n = lines.line_number();
-        const size_t got = parse_line(file, line, n, 0, values);
+        const size_t got = parse_xyz_line(file.path, line, n, 0, values);
         if (got < 3)
           input_error(file.path, "expected at least 3 columns (x y z), found " +
                                      std::to_string(got) + at_line(n));
@@ -123,14 +120,14 @@ Cloud read_xyz(const FileBytes& file, std::vector<std::string>* warnings) {
   row.reserve(columns);
   bool first = true;
   size_t i = 0;
-  while (next_data_line(lines, line)) {
+  while (next_xyz_data_line(lines, line)) {
     if (first && has_declared) {
       first = false;
       continue;
     }
     first = false;
     row.clear();
-    parse_line(file, line, lines.line_number(), columns, row);
+    parse_xyz_line(file.path, line, lines.line_number(), columns, row);
     store(cloud, i++, row.data(), columns);
   }
   if (has_declared && declared != uint64_t(cloud.size()))

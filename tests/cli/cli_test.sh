@@ -465,6 +465,35 @@ case_orient_keep() {
   grep -q '^nhnet-cli: warning: .*no normals' stderr.txt || fail "no warning for --orient keep without input normals"
 }
 
+case_estimate_stream() {
+  # --stream (out of core, tiles through temporary files) gives the in-memory normals: the sample
+  # in 3 tiles against the untiled run, mean difference < 0.01 deg (both are MFPS with the same
+  # sizes; the streamed normals are stored as float, the noise probe is the same set of points).
+  get_sample
+  expect 0 estimate sample.xyz mem.xyzn --method mfps --tile-points 0 --orient none
+  expect 0 estimate sample.xyz str.xyzn --method mfps --tile-points 8000 --stream --orient none
+  grep -q "streamed in 3 tiles" stderr.txt || fail "summary lacks 'streamed in 3 tiles'"
+  paste -d ' ' sample.xyz str.xyzn | awk '{ if ($1 != $4 || $2 != $5 || $3 != $6) moved++ }
+    END { exit moved > 0 }' || fail "--stream moved or reordered points"
+  expect 0 eval str.xyzn mem.xyzn
+  approx "$(eval_value mean)" 0 0.01
+  no_temp_files
+  [[ -z $(find . -maxdepth 1 -name '.nhnet-stream-*') ]] || fail "tile folder left behind"
+  # Input normals: the default is keep; binary PLY output; JSON says streamed.
+  gen_sphere 3000 5 sphere.xyzn normals
+  expect 0 estimate sphere.xyzn out.ply --stream --tile-points 1000 --method pca --json
+  grep -q '"streamed": true' stdout.txt || fail "JSON lacks streamed"
+  grep -q '"orient": "keep"' stdout.txt || fail "default orientation with input normals is not keep"
+  expect 0 estimate out.ply back.xyzn --orient none --method pca
+  # What streaming cannot do: exit 2 before any work, no output.
+  usage_errors estimate sphere.xyzn o.xyzn "--stream --orient mst" "--stream --tile-points 0" \
+    "--temp-dir ."
+  usage_errors estimate sphere.xyzn o.pcd "--stream"
+  expect 2 estimate out.ply o.xyzn --stream
+  one_error_line "out.ply" "XYZ text"
+  no_file o.xyzn
+}
+
 # gen_noisy_sphere N SEED SIGMA FILE: N points on the unit sphere with Gaussian noise SIGMA.
 gen_noisy_sphere() {
   awk -v n="$1" -v seed="$2" -v s="$3" 'function g() {
