@@ -189,8 +189,8 @@ struct Plan {
     return nodes[size_t(n)].leaf;
   }
 
-  // Splits sample rows order[begin, end) into `parts` leaves (tiling.cpp's rule: longest axis of
-  // the range's box at the count quantile parts_left / parts).
+  // Splits sample rows order[begin, end) into `parts` leaves (detail::split_range, the in-memory
+  // tiling's rule); points at a cut's value go right.
   int build(const Points& s, std::vector<int64_t>& order, int64_t begin, int64_t end, int64_t parts,
             Eigen::RowVector3d lo_cell, Eigen::RowVector3d hi_cell) {
     const int id = int(nodes.size());
@@ -201,24 +201,16 @@ struct Plan {
       cell_hi.push_back(hi_cell);
       return id;
     }
-    Eigen::RowVector3d lo = s.row(order[size_t(begin)]), hi = lo;
-    for (int64_t i = begin; i < end; ++i) {
-      lo = lo.cwiseMin(s.row(order[size_t(i)]));
-      hi = hi.cwiseMax(s.row(order[size_t(i)]));
-    }
-    Eigen::Index axis;
-    (hi - lo).maxCoeff(&axis);
-    const int64_t left = parts / 2;
-    const int64_t mid = begin + (end - begin) * left / parts;
-    std::nth_element(order.begin() + begin, order.begin() + mid, order.begin() + end,
-                     [&](int64_t a, int64_t b) { return s(a, axis) < s(b, axis); });
-    const double value = s(order[size_t(mid)], axis);
+    const detail::RangeCut cut = detail::split_range(s, order, begin, end, parts);
+    const int axis = cut.axis;
+    const double value = cut.value;
+    const int64_t mid = cut.mid, left = parts / 2;
     Eigen::RowVector3d hi_left = hi_cell, lo_right = lo_cell;
     hi_left[axis] = value;
     lo_right[axis] = value;
     const int l = build(s, order, begin, mid, left, lo_cell, hi_left);
     const int r = build(s, order, mid, end, parts - left, lo_right, hi_cell);
-    nodes[size_t(id)].axis = int(axis);
+    nodes[size_t(id)].axis = axis;
     nodes[size_t(id)].value = value;
     nodes[size_t(id)].left = l;
     nodes[size_t(id)].right = r;

@@ -33,20 +33,8 @@ bool wants_tiles(const Points& points, const EstimateOptions& options) {
   return finite > options.tile_points;
 }
 
-namespace {
-
-struct Leaf {
-  int64_t begin, end;  // range of `order`
-};
-
-// Splits order[begin, end) (rows of pts) into `parts` leaves of nearly equal size: the longest
-// axis of the range's bounding box is cut at the point-count quantile parts_left / parts.
-void split(const Points& pts, std::vector<int64_t>& order, int64_t begin, int64_t end,
-           int64_t parts, std::vector<Leaf>& leaves) {
-  if (parts <= 1 || end - begin < 2) {
-    leaves.push_back({begin, end});
-    return;
-  }
+RangeCut split_range(const Points& pts, std::vector<int64_t>& order, int64_t begin, int64_t end,
+                     int64_t parts) {
   Eigen::RowVector3d lo = pts.row(order[size_t(begin)]), hi = lo;
   for (int64_t i = begin; i < end; ++i) {
     lo = lo.cwiseMin(pts.row(order[size_t(i)]));
@@ -54,16 +42,32 @@ void split(const Points& pts, std::vector<int64_t>& order, int64_t begin, int64_
   }
   Eigen::Index axis;
   (hi - lo).maxCoeff(&axis);
-  const int64_t left = parts / 2;
-  const int64_t mid = begin + (end - begin) * left / parts;
+  const int64_t mid = begin + (end - begin) * (parts / 2) / parts;
   // Ties by row: the split depends only on the points, not on the order they came in.
   std::nth_element(order.begin() + begin, order.begin() + mid, order.begin() + end,
                    [&](int64_t a, int64_t b) {
                      const double x = pts(a, axis), y = pts(b, axis);
                      return x < y || (x == y && a < b);
                    });
-  split(pts, order, begin, mid, left, leaves);
-  split(pts, order, mid, end, parts - left, leaves);
+  return {int(axis), mid, pts(order[size_t(mid)], axis)};
+}
+
+namespace {
+
+struct Leaf {
+  int64_t begin, end;  // range of `order`
+};
+
+// Splits order[begin, end) (rows of pts) into `parts` leaves of nearly equal size (split_range).
+void split(const Points& pts, std::vector<int64_t>& order, int64_t begin, int64_t end,
+           int64_t parts, std::vector<Leaf>& leaves) {
+  if (parts <= 1 || end - begin < 2) {
+    leaves.push_back({begin, end});
+    return;
+  }
+  const RangeCut cut = split_range(pts, order, begin, end, parts);
+  split(pts, order, begin, cut.mid, parts / 2, leaves);
+  split(pts, order, cut.mid, end, parts - parts / 2, leaves);
 }
 
 // Bounding box of each leaf's points (one pass over the owners).

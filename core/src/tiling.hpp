@@ -58,6 +58,17 @@ void check_options(const EstimateOptions& options);
 /// True when `points` has more finite rows than options.tile_points (> 0).
 bool wants_tiles(const Points& points, const EstimateOptions& options);
 
+/// One kd-tree split of the tilings: the longest axis of the bounding box of rows
+/// order[begin, end) of `pts` (N x 3), cut at the point-count quantile (parts / 2) / parts;
+/// reorders the range so that [begin, mid) are below the cut (ties by row).
+struct RangeCut {
+  int axis;
+  int64_t mid;
+  double value;  ///< coordinate of order[mid] on `axis`
+};
+RangeCut split_range(const Points& pts, std::vector<int64_t>& order, int64_t begin, int64_t end,
+                     int64_t parts);
+
 /// estimate_normals in spatial tiles with halos (tiling.cpp).
 EstimateResult estimate_tiled(const Points& points, const EstimateOptions& options);
 
