@@ -147,6 +147,10 @@ InsideOutside::InsideOutside(const Points& points, const Normals& normals, doubl
   const double floor_h = extent.maxCoeff() / double(std::max(8, options.max_side));
   // An extent beyond the double range (coordinates near +-1e308) has no grid: no votes.
   if (!std::isfinite(floor_h)) return;
+  if (options.typical_spacing > 0 && !options.voxel_spacings.empty() &&
+      floor_h > *std::max_element(options.voxel_spacings.begin(), options.voxel_spacings.end()) *
+                    options.typical_spacing)
+    return;
   double last_h = 0;
   std::vector<int8_t> votes(static_cast<size_t>(m));
   for (const double factor : options.voxel_spacings) {
@@ -155,6 +159,7 @@ InsideOutside::InsideOutside(const Points& points, const Normals& normals, doubl
     if (h <= last_h) continue;  // capped by max_side: the same grid again
     last_h = h;
     auto g = std::make_unique<Grid>(build_grid(points, h, options.dilation));
+    ++grids_built_;
     std::vector<uint8_t> leaked(static_cast<size_t>(m), 0);
     parallel_for(m, threads, nullptr, [&](int64_t i) {
       bool l = false;

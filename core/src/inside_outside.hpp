@@ -28,6 +28,11 @@ struct InsideOutsideOptions {
   double max_leak = 0.05;
   /// Largest grid side in voxels (the voxel grows for large clouds; memory <= side^3 bytes).
   int max_side = 384;
+  /// Typical point spacing (the median distance to the nearest other point; 0 = not known).
+  /// When the box needs voxels coarser than the coarsest voxel_spacings of it (a far outlier
+  /// stretches the box), no grid is built: such a grid cannot resolve the surface, and filling
+  /// a 384^3 grid took 5 s on a 4001-point cloud with one outlier 1000 radii away.
+  double typical_spacing = 0;
 };
 
 /// The flood-filled grid of a cloud, and the votes it gives.
@@ -52,6 +57,8 @@ class InsideOutside {
   /// Share of the points whose both offsets reached the outside on the grid used (on the
   /// coarsest grid tried when none was watertight).
   double leak() const { return leak_; }
+  /// Grids built and flood-filled (0 when none was tried).
+  int grids_built() const { return grids_built_; }
 
   struct Grid;
 
@@ -59,6 +66,7 @@ class InsideOutside {
   std::unique_ptr<Grid> grid_;
   std::vector<int8_t> votes_;
   double leak_ = 1;
+  int grids_built_ = 0;
 };
 
 }  // namespace nhnet::detail

@@ -9,6 +9,7 @@
 #include "dedupe.hpp"
 #include "inside_outside.hpp"
 #include "parallel.hpp"
+#include "stats.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -78,6 +79,7 @@ std::vector<uint8_t> orient_mst(const Points& points, Normals& normals,
   std::vector<std::vector<int32_t>> adj(static_cast<size_t>(m));
   double noise = 0;  // typical offset of a neighbour from a point's guide plane
   double spacing = 0;  // mean distance to the nearest other point (the flood fill's unit)
+  double median_spacing = 0;  // its median (blind to a few far outliers)
   if (m > 1) {
     const Neighbors tree(pts);
     RunContext sub;
@@ -85,6 +87,8 @@ std::vector<uint8_t> orient_mst(const Points& points, Normals& normals,
     IndexMatrix knn;
     tree.knn_all(k, knn, nullptr, sub);
     int64_t counted = 0;
+    std::vector<double> nearest_all;
+    nearest_all.reserve(size_t(m));
     for (Eigen::Index i = 0; i < m; ++i) {
       double nearest = std::numeric_limits<double>::infinity();
       for (Eigen::Index c = 1; c < knn.cols(); ++c) {
@@ -96,10 +100,12 @@ std::vector<uint8_t> orient_mst(const Points& points, Normals& normals,
       }
       if (std::isfinite(nearest)) {
         spacing += nearest;
+        nearest_all.push_back(nearest);
         ++counted;
       }
     }
     if (counted > 0) spacing /= double(counted);
+    median_spacing = detail::quantile(std::move(nearest_all), 0.5);
     for (auto& a : adj) {
       std::sort(a.begin(), a.end());
       a.erase(std::unique(a.begin(), a.end()), a.end());
@@ -213,9 +219,9 @@ std::vector<uint8_t> orient_mst(const Points& points, Normals& normals,
   // most confident path to a decided one.
   std::unique_ptr<detail::InsideOutside> sides;
   if (options.inside_outside && m >= 4) {
-    sides = std::make_unique<detail::InsideOutside>(pts, guide, spacing,
-                                                    detail::InsideOutsideOptions{},
-                                                    options.run.threads);
+    detail::InsideOutsideOptions io;
+    io.typical_spacing = median_spacing;
+    sides = std::make_unique<detail::InsideOutside>(pts, guide, spacing, io, options.run.threads);
     res.voxel = sides->voxel();
     std::vector<int8_t> vote = sides->votes();
     for (Eigen::Index i = 0; i < m; ++i)

@@ -82,3 +82,27 @@ TEST(InsideOutside, TooFewPointsOrNoSpacingGiveNoVotes) {
   const fixtures::Fixture g = fixtures::sphere(100, 1);
   EXPECT_EQ(InsideOutside(g.points, g.normals, 0.0).voxel(), 0.0);
 }
+
+// One far outlier stretches the box so that even a 384^3 grid has voxels of many spacings: with
+// the typical (median) spacing known, no grid is built (no votes; orientation falls back to the
+// tree) instead of filling a grid that cannot resolve the sphere; a sphere without the outlier
+// still gets its grid with the same option.
+TEST(InsideOutside, FarOutlierGetsNoGrid) {
+  const auto f = fixtures::sphere(4000, 7);
+  Points p(f.points.rows() + 1, 3);
+  p.topRows(f.points.rows()) = f.points;
+  p.row(f.points.rows()) << 1000, 1000, 1000;
+  Normals n(p.rows(), 3);
+  n.topRows(f.points.rows()) = f.normals;
+  n.row(f.points.rows()) << 0, 0, 1;
+  nhnet::detail::InsideOutsideOptions o;
+  o.typical_spacing = spacing(f.points);
+  const InsideOutside far(p, n, spacing(p), o);
+  EXPECT_EQ(far.grids_built(), 0);
+  EXPECT_EQ(far.voxel(), 0.0);
+  EXPECT_EQ(shares(far.votes()).first + shares(far.votes()).second, 0.0);
+  const InsideOutside near(f.points, f.normals, spacing(f.points), o);
+  EXPECT_GE(near.grids_built(), 1);
+  EXPECT_GT(near.voxel(), 0.0);
+  EXPECT_GE(shares(near.votes()).first, 0.999);
+}
