@@ -121,6 +121,53 @@ void load_model(const EstimateArgs& a, Setup& st) {
     std::cerr << "nhnet-cli: NH-Net runs on " << st.device << " (--device auto)" << std::endl;
 }
 
+/// What the summary line and the --json object report of one input.
+struct Summary {
+  int64_t points = 0, failed = 0;
+  int k = 0;
+  std::vector<int> scales;
+  double noise_ratio = 0, spacing = 0;
+  int64_t candidates = 0;
+  int tiles = 1;
+  bool streamed = false;
+  size_t warnings = 0;
+};
+
+/// The summary line on stderr (unless --quiet / --json) and the --json object on stdout.
+void print_summary(const EstimateArgs& a, const Setup& st, const std::string& in,
+                   const std::string& out, const Summary& s, const nhnet::OrientOptions& orient,
+                   const nhnet::OrientResult& ores, double seconds) {
+  const char* method = nhnet::to_string(st.opt.method);
+  if (!a.quiet && !a.json) {
+    char noise[32], secs[32];
+    std::snprintf(noise, sizeof noise, "%.3g", s.noise_ratio);
+    std::snprintf(secs, sizeof secs, "%.2f", seconds);
+    const std::string tiles = s.streamed   ? ", streamed in " + std::to_string(s.tiles) + " tiles"
+                              : s.tiles > 1 ? ", " + std::to_string(s.tiles) + " tiles"
+                                            : std::string();
+    std::ostringstream line;
+    line << "nhnet-cli: " << s.points << " points, " << s.failed << " failed, method " << method
+         << (st.opt.method == nhnet::Method::NhNet ? " on " + st.device : std::string()) << ", k "
+         << s.k << ", scales " << (s.scales.empty() ? std::string("-") : join(s.scales, "/"))
+         << ", noise ratio " << noise << ", " << s.candidates << " candidates" << tiles
+         << ", orient " << orient_summary(orient, ores) << ", " << secs << " s, output " << out;
+    std::cerr << line.str() << std::endl;
+  }
+  if (a.json) {
+    std::ostringstream js;
+    js << "{\"input\": " << json_string(in) << ", \"output\": " << json_string(out)
+       << ", \"points\": " << s.points << ", \"failed\": " << s.failed
+       << ", \"method\": " << json_string(method) << ", \"k\": " << s.k
+       << ", \"scales\": [" << join(s.scales, ", ") << "]"
+       << ", \"noise_ratio\": " << json_number(s.noise_ratio)
+       << ", \"spacing\": " << json_number(s.spacing) << ", \"candidates\": " << s.candidates
+       << ", \"tiles\": " << s.tiles << (s.streamed ? ", \"streamed\": true" : "") << ", "
+       << orient_json(orient, ores) << ", \"warnings\": " << s.warnings
+       << ", \"seconds\": " << json_number(seconds, 4) << "}";
+    std::cout << js.str() << std::endl;
+  }
+}
+
 /// --stream: the out-of-core estimate (stream.hpp); same summary and JSON as run_one.
 void run_one_stream(const EstimateArgs& a, const Setup& st, const std::string& in,
                     const std::string& out, Outcome& o) {
@@ -146,35 +193,9 @@ void run_one_stream(const EstimateArgs& a, const Setup& st, const std::string& i
   o.points = res.points;
   o.failed = res.failed;
   o.seconds = rep.elapsed();
-  const char* method = nhnet::to_string(st.opt.method);
-  char noise[32], secs[32];
-  std::snprintf(noise, sizeof noise, "%.3g", res.noise_ratio);
-  std::snprintf(secs, sizeof secs, "%.2f", o.seconds);
-  if (!a.quiet && !a.json) {
-    std::ostringstream line;
-    line << "nhnet-cli: " << res.points << " points, " << res.failed << " failed, method "
-         << method << (st.opt.method == nhnet::Method::NhNet ? " on " + st.device : std::string())
-         << ", k " << res.k_used << ", scales "
-         << (res.scales_used.empty() ? std::string("-") : join(res.scales_used, "/"))
-         << ", noise ratio " << noise << ", " << res.candidates << " candidates, streamed in "
-         << res.tiles << " tiles, orient " << orient_summary(shown, res.orient) << ", " << secs
-         << " s, output " << out;
-    std::cerr << line.str() << std::endl;
-  }
-  if (a.json) {
-    std::ostringstream js;
-    js << "{\"input\": " << json_string(in) << ", \"output\": " << json_string(out)
-       << ", \"points\": " << res.points << ", \"failed\": " << res.failed
-       << ", \"method\": " << json_string(method) << ", \"k\": " << res.k_used
-       << ", \"scales\": [" << join(res.scales_used, ", ") << "]"
-       << ", \"noise_ratio\": " << json_number(res.noise_ratio)
-       << ", \"spacing\": " << json_number(res.spacing)
-       << ", \"candidates\": " << res.candidates << ", \"tiles\": " << res.tiles
-       << ", \"streamed\": true, " << orient_json(shown, res.orient)
-       << ", \"warnings\": " << res.warnings.size()
-       << ", \"seconds\": " << json_number(o.seconds, 4) << "}";
-    std::cout << js.str() << std::endl;
-  }
+  Summary sum{res.points, res.failed, res.k_used, res.scales_used, res.noise_ratio, res.spacing,
+              res.candidates, res.tiles, true, res.warnings.size()};
+  print_summary(a, st, in, out, sum, shown, res.orient, o.seconds);
 }
 
 /// Reads IN, estimates, orients and writes OUT; fills `o`. Throws on failure.
@@ -222,39 +243,10 @@ void run_one(const EstimateArgs& a, const Setup& st, const std::string& in, cons
   o.failed = res.failed;
   o.seconds = seconds;
 
-  // Summary.
-  const char* method = nhnet::to_string(opt.method);
-  if (!a.quiet && !a.json) {
-    char noise[32];
-    std::snprintf(noise, sizeof noise, "%.3g", res.noise_ratio);
-    std::ostringstream line;
-    line << "nhnet-cli: " << cloud.size() << " points, " << res.failed << " failed, method "
-         << method << (opt.method == nhnet::Method::NhNet ? " on " + st.device : std::string())
-         << ", k " << res.k_used << ", scales "
-         << (res.scales_used.empty() ? std::string("-") : join(res.scales_used, "/"))
-         << ", noise ratio " << noise << ", " << res.candidates << " candidates"
-         << (res.tiles > 1 ? ", " + std::to_string(res.tiles) + " tiles" : std::string())
-         << ", orient "
-         << orient_summary(orient, ores);
-    char secs[32];
-    std::snprintf(secs, sizeof secs, "%.2f", seconds);
-    line << ", " << secs << " s, output " << out;
-    std::cerr << line.str() << std::endl;
-  }
-  if (a.json) {
-    std::ostringstream js;
-    js << "{\"input\": " << json_string(in) << ", \"output\": " << json_string(out)
-       << ", \"points\": " << cloud.size() << ", \"failed\": " << res.failed
-       << ", \"method\": " << json_string(method) << ", \"k\": " << res.k_used
-       << ", \"scales\": [" << join(res.scales_used, ", ") << "]"
-       << ", \"noise_ratio\": " << json_number(res.noise_ratio)
-       << ", \"spacing\": " << json_number(res.spacing)
-       << ", \"candidates\": " << res.candidates << ", \"tiles\": " << res.tiles
-       << ", " << orient_json(orient, ores)
-       << ", \"warnings\": " << res.warnings.size() + read_warnings.size()
-       << ", \"seconds\": " << json_number(seconds, 4) << "}";
-    std::cout << js.str() << std::endl;
-  }
+  Summary sum{int64_t(cloud.size()), res.failed, res.k_used, res.scales_used, res.noise_ratio,
+              res.spacing, res.candidates, res.tiles, false,
+              res.warnings.size() + read_warnings.size()};
+  print_summary(a, st, in, out, sum, orient, ores, seconds);
 }
 
 /// run_one naming the file on exit-4 and exit-7 errors.

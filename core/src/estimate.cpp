@@ -111,6 +111,11 @@ Probe probe_noise(const Points& pts, const Neighbors& tree, const RunContext& ru
       residual[r] = std::sqrt(std::max(0.0, ev[0]));
     });
   }
+  return probe_from_rows(d2, residual);
+}
+
+Probe probe_from_rows(const DistanceMatrix& d2, const Eigen::VectorXd& residual) {
+  Probe out;
   out.noise = estimate_noise(d2, residual);
   std::vector<double> far(size_t(d2.rows()));
   for (Eigen::Index i = 0; i < d2.rows(); ++i) far[size_t(i)] = std::sqrt(double(d2(i, d2.cols() - 1)));

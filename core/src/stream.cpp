@@ -50,6 +50,9 @@ using io_detail::input_error;
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
+/// True when the row's x y z (its first three values) are all finite.
+bool finite_xyz(const double* v) { return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]); }
+
 // ---------------------------------------------------------------------------------------------
 // Input: the XYZ text file, chunk by chunk (io_xyz.cpp's line rules).
 
@@ -470,7 +473,7 @@ StreamResult estimate_stream(const std::string& input, const std::string& output
   res.points = in.for_each(
       [&](int64_t, const double* v, size_t) {
         for (int k = 0; k < 3; ++k) fits_float = fits_float && (std::isnan(v[k]) || double(float(v[k])) == v[k]);
-        if (!(std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]))) return;
+        if (!finite_xyz(v)) return;
         const Eigen::RowVector3d p(v[0], v[1], v[2]);
         lo = lo.cwiseMin(p);
         hi = hi.cwiseMax(p);
@@ -521,7 +524,7 @@ StreamResult estimate_stream(const std::string& input, const std::string& output
   if (run.progress) top.stage("binning", 0.05, 0.1);
   in.for_each(
       [&](int64_t row, const double* v, size_t) {
-        if (!(std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]))) return;
+        if (!finite_xyz(v)) return;
         const Eigen::RowVector3d p = frame.to_frame(v);
         tiles.add(plan.route(p), row, p);
       },
@@ -579,34 +582,20 @@ StreamResult estimate_stream(const std::string& input, const std::string& output
     }
     if (probe_d2.empty())
       throw UnprocessableInput(input + ": no point has a complete noise-probe neighbourhood");
-    detail::Probe probe;
     DistanceMatrix d2(Eigen::Index(probe_d2.size()), kprobe);
-    Eigen::VectorXd residual(Eigen::Index(probe_d2.size()));
-    std::vector<double> far(probe_d2.size());
-    for (size_t r = 0; r < probe_d2.size(); ++r) {
+    for (size_t r = 0; r < probe_d2.size(); ++r)
       for (int c = 0; c < kprobe; ++c) d2(Eigen::Index(r), c) = probe_d2[r][size_t(c)];
-      residual[Eigen::Index(r)] = probe_residual[r];
-      far[r] = std::sqrt(double(d2(Eigen::Index(r), kprobe - 1)));
-    }
     probe_d2.clear();
-    probe.noise = estimate_noise(d2, residual);
-    probe.far_radius = detail::quantile(std::move(far), 0.99);
-    probe.far_k = kprobe;
-    return probe;
+    return detail::probe_from_rows(
+        d2, Eigen::Map<const Eigen::VectorXd>(probe_residual.data(), Eigen::Index(probe_residual.size())));
   };
   const detail::Probe rough =
       probe_pass(std::max<int64_t>(1, finite / 20000), 0, 0, 0.2);
   const detail::Probe probe =
       probe_pass(std::max<int64_t>(1, finite / kProbeAllPoints), 2 * rough.far_radius, 0.2, 1);
-  ScaleChoice choice = choose_scales(probe.noise.ratio, finite);
-  if (eo.k > 0) choice.k_smooth = eo.k;
-  if (!eo.scales.empty()) choice.scales = eo.scales;
-  int kneed = choice.k_smooth;
-  if (eo.method != Method::Pca)
-    kneed = std::max(kneed, *std::max_element(choice.scales.begin(), choice.scales.end()));
-  const auto radius = [&](int k) {
-    return probe.far_radius * std::sqrt(std::max(1.0, double(k) / double(std::max(1, probe.far_k))));
-  };
+  const detail::TileSizes sizes = detail::tile_sizes(probe, eo, finite);
+  const ScaleChoice& choice = sizes.choice;
+  const auto radius = [&](int k) { return sizes.radius(k); };
 
   EstimateOptions o = eo;
   o.tile_points = 0;
@@ -644,7 +633,7 @@ StreamResult estimate_stream(const std::string& input, const std::string& output
   }
 
   // 5. Each tile with its halo; own results to the tile's result file (input order).
-  const double halo = eo.tile_halo * radius(kneed);
+  const double halo = eo.tile_halo * radius(sizes.kneed);
   const double begin = 0.15 + span1, span = (0.95 - begin) / double(ntiles);
   std::set<std::string> seen_warnings(res.warnings.begin(), res.warnings.end());
   int64_t degenerate = 0;
@@ -748,7 +737,7 @@ StreamResult estimate_stream(const std::string& input, const std::string& output
           if (columns >= 6) ref.row(i) = Eigen::RowVector3d(v[3], v[4], v[5]);
           else ref.row(i).setConstant(NAN);
         }
-        if (std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2])) {
+        if (finite_xyz(v)) {
           const char* rec = results[size_t(plan.route(frame.to_frame(v)))].next();
           float n[3];
           std::memcpy(n, rec, sizeof n);

@@ -52,6 +52,23 @@ RangeCut split_range(const Points& pts, std::vector<int64_t>& order, int64_t beg
   return {int(axis), mid, pts(order[size_t(mid)], axis)};
 }
 
+double TileSizes::radius(int k) const {
+  return far_radius * std::sqrt(std::max(1.0, double(k) / double(std::max(1, far_k))));
+}
+
+TileSizes tile_sizes(const Probe& probe, const EstimateOptions& options, int64_t m) {
+  TileSizes t;
+  t.choice = choose_scales(probe.noise.ratio, Eigen::Index(m));
+  if (options.k > 0) t.choice.k_smooth = options.k;
+  if (!options.scales.empty()) t.choice.scales = options.scales;
+  t.kneed = t.choice.k_smooth;
+  if (options.method != Method::Pca)
+    t.kneed = std::max(t.kneed, *std::max_element(t.choice.scales.begin(), t.choice.scales.end()));
+  t.far_radius = probe.far_radius;
+  t.far_k = probe.far_k;
+  return t;
+}
+
 namespace {
 
 struct Leaf {
@@ -131,18 +148,10 @@ EstimateResult estimate_tiled(const Points& points, const EstimateOptions& optio
     probe = probe_noise(pts, tree, narrow(run, 0.01, 0.04), nullptr);
   }
   top.throw_if_cancelled();
-  ScaleChoice choice = choose_scales(probe.noise.ratio, m);
-  if (options.k > 0) choice.k_smooth = options.k;
-  if (!options.scales.empty()) choice.scales = options.scales;
-  int kneed = choice.k_smooth;
-  if (options.method != Method::Pca)
-    kneed = std::max(kneed, *std::max_element(choice.scales.begin(), choice.scales.end()));
-  // Radius of a K-neighbourhood from the probe's far radius (area ~ K on a surface; never
-  // below the probe's own radius).
-  const auto radius = [&](int k) {
-    return probe.far_radius * std::sqrt(std::max(1.0, double(k) / double(std::max(1, probe.far_k))));
-  };
-  const double halo = options.tile_halo * radius(kneed);
+  const TileSizes sizes = tile_sizes(probe, options, int64_t(m));
+  const ScaleChoice& choice = sizes.choice;
+  const auto radius = [&](int k) { return sizes.radius(k); };
+  const double halo = options.tile_halo * radius(sizes.kneed);
 
   std::vector<int64_t> order(static_cast<size_t>(m));
   for (Eigen::Index i = 0; i < m; ++i) order[size_t(i)] = i;

@@ -48,6 +48,23 @@ struct Probe {
 Probe probe_noise(const Points& pts, const Neighbors& tree, const RunContext& run,
                   IndexMatrix* table);
 
+/// The probe's result from its rows: `d2` (R x K) squared distances to each probed point's K
+/// nearest (self first) and `residual` (R) their PCA residuals, in one length unit.
+Probe probe_from_rows(const DistanceMatrix& d2, const Eigen::VectorXd& residual);
+
+/// What a tiled run (in memory or streamed) hands its tiles: the sizes for the probe's noise level
+/// over m points (the options' k and scales win), the largest neighbourhood the stages use, and
+/// neighbourhood radii from the probe's far radius.
+struct TileSizes {
+  ScaleChoice choice;
+  int kneed = 0;
+  double far_radius = 0;
+  int far_k = 0;
+  /// Radius of a k-neighbourhood (area ~ k on a surface; never below the probe's own radius).
+  double radius(int k) const;
+};
+TileSizes tile_sizes(const Probe& probe, const EstimateOptions& options, int64_t m);
+
 /// Copies each duplicate's result from its first copy (`copies`, from Canonical), counts the
 /// failed rows and warns about the degenerate ones (beyond the N - finite_count non-finite).
 void finish_result(EstimateResult& res, const std::vector<int64_t>& copies, size_t finite_count);
