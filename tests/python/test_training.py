@@ -10,7 +10,8 @@ import nhnet  # noqa: E402  (the bindings, build/python)
 
 from nhnet_training.config import DESCRIPTOR_VERSION, TrainConfig, descriptor_size  # noqa: E402
 from nhnet_training.export import read_metadata  # noqa: E402
-from nhnet_training.train import train  # noqa: E402
+from nhnet_training.model import NhNet  # noqa: E402
+from nhnet_training.train import WeightAverage, train  # noqa: E402
 
 
 def half_cube(n, noise, seed):
@@ -62,6 +63,46 @@ def test_train_tiny_and_export(tmp_path):
     # The checkpoint holds the config too.
     ck = torch.load(str(tmp_path / "run" / "best.ckpt"))
     assert TrainConfig.from_dict(json.loads(ck["config"])).conv1 == 4
+
+
+def test_weight_average_follows_the_decay():
+    torch.manual_seed(0)
+    model = NhNet(TrainConfig(conv1=4, conv2=4, hidden1=8, hidden2=8))
+    start = {k: v.clone() for k, v in model.state_dict().items()}
+    avg = WeightAverage(model, decay=0.5)
+    with torch.no_grad():  # new weights (and BatchNorm statistics) all zero
+        for v in model.state_dict().values():
+            if v.dtype.is_floating_point:
+                v.zero_()
+        model.state_dict()[next(k for k in start if k.endswith("num_batches_tracked"))].fill_(7)
+    avg.update(model)  # step 1: decay min(0.5, 2/11) = 2/11
+    d = 2 / 11
+    for k, v in avg.model.state_dict().items():
+        if v.dtype.is_floating_point:
+            assert torch.allclose(v, d * start[k]), k
+        else:
+            assert torch.equal(v, model.state_dict()[k]), k  # counters copied, not averaged
+
+
+def test_train_with_weight_average_keeps_the_better_copy(tmp_path):
+    cfg = TrainConfig(conv1=4, conv2=4, hidden1=8, hidden2=8, epochs=2, batch=256,
+                      out_dir=str(tmp_path / "run"), max_minutes=2, ema_decay=0.9)
+    info = train(cfg, data=samples(2), log=lambda s: None)
+    hist = json.loads((tmp_path / "run" / "history.json").read_text())["history"]
+    assert all(np.isfinite(h["val_deg_average"]) for h in hist)
+    best = hist[info["best_epoch"]]
+    kept = min(best["val_deg"], best["val_deg_average"])
+    assert info["val_deg"] == pytest.approx(kept)
+    assert info["weights"] == ("average" if best["val_deg_average"] < best["val_deg"] else "raw")
+    # The exported model is the kept copy: its outputs equal the checkpoint's weights'.
+    ck = torch.load(str(tmp_path / "run" / "best.ckpt"))
+    assert ck["info"]["weights"] == info["weights"]
+    net = NhNet(cfg)
+    net.load_state_dict(ck["model"])
+    net.eval()
+    x = torch.from_numpy(samples(3)["features"][:64])
+    with torch.no_grad():
+        assert torch.allclose(torch.jit.load(str(tmp_path / "run" / "model.pt"))(x), net(x), atol=1e-5)
 
 
 def test_export_zeroes_tiny_weights(tmp_path):

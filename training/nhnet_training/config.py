@@ -48,6 +48,9 @@ class TrainConfig:
     patience: int = 5
     max_minutes: float = 35.0                  # wall-clock cap of the training loop
     threads: int = 2
+    ema_decay: float = 0.0                     # weight average per step (0 = off); the average is
+                                               # validated beside the raw weights every epoch and
+                                               # kept when it is better
     seed: int = 1
     # output
     out_dir: str = "runs/nhnet"

@@ -100,7 +100,7 @@ TRAIN_MODELS = [
     "bear", "diplodocus", "elk", "handle", "head", "pig", "cactus", "helmet", "bones",
     "mask_cone", "three_peaks", "holes",
 ]
-TRAIN_LEVELS = [0.0, 0.05, 0.1, 0.2, 0.3, 0.6, 1.2]
+TRAIN_LEVELS = [0.0, 0.05, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 1.2]
 TRAIN_DENSITY_LEVELS = [0.0, 0.3]
 
 SAMPLE_MODEL, SAMPLE_LEVEL, SAMPLE_POINTS = "fandisk", 0.6, 20000

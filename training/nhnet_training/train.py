@@ -7,6 +7,7 @@ is exported to TorchScript with metadata (export.py)."""
 from __future__ import annotations
 
 import argparse
+import copy
 import dataclasses
 import json
 import math
@@ -45,6 +46,26 @@ def evaluate(model: NhNet, x: torch.Tensor, y: torch.Tensor, batch: int = 4096) 
     return float(torch.cat(errs).mean()) if errs else float("nan")
 
 
+class WeightAverage:
+    """Exponential moving average of a model's parameters and buffers (BatchNorm statistics too),
+    updated after every optimiser step; the decay ramps up over the first steps
+    (min(decay, (1 + t) / (10 + t))) so the average does not start from the random weights."""
+
+    def __init__(self, model: NhNet, decay: float):
+        self.decay, self.steps = decay, 0
+        self.model = copy.deepcopy(model)
+
+    @torch.no_grad()
+    def update(self, model: NhNet) -> None:
+        self.steps += 1
+        d = min(self.decay, (1 + self.steps) / (10 + self.steps))
+        for a, b in zip(self.model.state_dict().values(), model.state_dict().values()):
+            if a.dtype.is_floating_point:
+                a.mul_(d).add_(b, alpha=1 - d)
+            else:
+                a.copy_(b)
+
+
 def train(cfg: TrainConfig, data: dict | None = None, log=print) -> dict:
     torch.set_num_threads(cfg.threads)
     # Denormal floats (weights decayed towards 0) are many times slower on the CPU: flush them
@@ -73,7 +94,8 @@ def train(cfg: TrainConfig, data: dict | None = None, log=print) -> dict:
         opt = torch.optim.Adam(model.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
     log(f"[train] {len(tr)} train / {n_val} val samples, {params} parameters; "
         f"MFPS input on val: {base_val:.3f} deg")
-    best, best_epoch, history = float("inf"), -1, []
+    average = WeightAverage(model, cfg.ema_decay) if cfg.ema_decay > 0 else None
+    best, best_epoch, best_kind, history = float("inf"), -1, "raw", []
     t0 = time.time()
     ck_path = out_dir / "best.ckpt"
     stopped = "epochs"
@@ -95,19 +117,27 @@ def train(cfg: TrainConfig, data: dict | None = None, log=print) -> dict:
             opt.zero_grad()
             loss.backward()
             opt.step()
+            if average is not None:
+                average.update(model)
             total += float(loss) * len(idx)
             seen += len(idx)
             if (time.time() - t0) / 60 > cfg.max_minutes:
                 break
         v = evaluate(model, xv, yv)
-        history.append({"epoch": epoch, "train_loss": total / max(seen, 1), "val_deg": v,
-                        "minutes": (time.time() - t0) / 60})
-        log(f"[train] epoch {epoch} loss {total / max(seen, 1):.5f} val {v:.3f} deg "
-            f"(MFPS {base_val:.3f}) {(time.time() - t0) / 60:.1f} min")
-        if v < best:
-            best, best_epoch = v, epoch
-            torch.save({"model": model.state_dict(), "config": cfg.to_json(),
-                        "info": {"epoch": epoch, "val_deg": v}}, ck_path)
+        row = {"epoch": epoch, "train_loss": total / max(seen, 1), "val_deg": v,
+               "minutes": (time.time() - t0) / 60}
+        v_avg = evaluate(average.model, xv, yv) if average is not None else float("inf")
+        if average is not None:
+            row["val_deg_average"] = v_avg
+        history.append(row)
+        log(f"[train] epoch {epoch} loss {total / max(seen, 1):.5f} val {v:.3f} deg"
+            + (f" (average {v_avg:.3f})" if average is not None else "")
+            + f" (MFPS {base_val:.3f}) {(time.time() - t0) / 60:.1f} min")
+        kind, v_kept, kept = ("average", v_avg, average.model) if v_avg < v else ("raw", v, model)
+        if v_kept < best:
+            best, best_epoch, best_kind = v_kept, epoch, kind
+            torch.save({"model": kept.state_dict(), "config": cfg.to_json(),
+                        "info": {"epoch": epoch, "val_deg": v_kept, "weights": kind}}, ck_path)
         if epoch - best_epoch >= cfg.patience:
             stopped = "patience"
             break
@@ -116,13 +146,14 @@ def train(cfg: TrainConfig, data: dict | None = None, log=print) -> dict:
             break
     ck = torch.load(ck_path, map_location="cpu")
     model.load_state_dict(ck["model"])
-    info = {"best_epoch": best_epoch, "val_deg": best, "val_mfps_deg": base_val,
+    info = {"best_epoch": best_epoch, "weights": best_kind, "val_deg": best, "val_mfps_deg": base_val,
             "train_samples": int(len(tr)), "val_samples": int(n_val), "parameters": params,
             "train_minutes": (time.time() - t0) / 60, "stopped": stopped,
             "clouds": [str(s) for s in data.get("names", [])]}
     export(model, cfg, str(out_dir / "model.pt"), info)
     (out_dir / "history.json").write_text(json.dumps({"info": info, "history": history}, indent=1))
-    log(f"[train] best val {best:.3f} deg (MFPS {base_val:.3f}) at epoch {best_epoch}; "
+    log(f"[train] best val {best:.3f} deg (MFPS {base_val:.3f}) at epoch {best_epoch} "
+        f"({best_kind} weights); "
         f"exported {out_dir / 'model.pt'}")
     return info
 
