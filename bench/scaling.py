@@ -1,7 +1,7 @@
 """Scaling benchmark (issue 10): time and peak memory per point from 100k to 10M points.
 
     /usr/bin/python3 bench/nhnet_bench.py --scaling [--sizes 100000,1000000,10000000]
-        [--model fandisk] [--methods pcl-pca,pca-auto,mfps-auto,nhnet] [--threads 2]
+        [--model fandisk] [--methods pcl-pca,pca-auto,mfps-auto,mfps-stream,nhnet] [--threads 2]
         [--out docs/benchmark/scaling] [--data DIR] [--timeout S] [--max-rss-gb G]
 
 One dense cloud per size, sampled uniformly from one benchmark mesh (nhnet-datagen's sampler).
@@ -13,6 +13,11 @@ grows with density (a fixed 0.1 % at 1M points makes the auto scales 137/274/300
 own; PCL NormalEstimationOMP (k=50) runs before every other method and once at the end, and each
 method's ratio is to the mean of the two PCL runs around it, taken seconds apart on the same
 cloud (the machine may be shared). Per-stage seconds come from the core's progress stages.
+`mfps-stream` is the out-of-core path, `nhnet-cli estimate --stream` on the cloud's text file:
+its time is the whole command (it reads the file in passes and writes the result), its peak
+is the process's, and its normals are scored against the cloud's ground truth like the others.
+A method is skipped at a size where its own peak bytes per point at the size before predict more
+than --max-rss-gb, so the streamed run goes on past the in-memory ones.
 
 Writes OUT/table.md, OUT/results.json and OUT/scaling.png (time per point and peak bytes per
 point against N, log x).
@@ -36,10 +41,12 @@ LABELS = {
     "pcl-pca": "PCL NormalEstimationOMP (k=50)",
     "pca-auto": "nhnet pca (auto k)",
     "mfps-auto": "nhnet mfps (auto scales)",
+    "mfps-stream": "nhnet-cli estimate --method mfps --stream (whole command, text in/out)",
     "nhnet": "nhnet NH-Net (MFPS + network)",
 }
 DESCRIPTOR_STAGES = ("bilateral filter", "canonical frames", "height maps")
 NETWORK_STAGES = ("nhnet",)
+STREAM_METHODS = {"mfps-stream": "mfps"}  # scaling method -> nhnet-cli --method, run --stream
 
 
 def noise_percent(n: int) -> float:
@@ -71,6 +78,36 @@ def run_method(bench, worker: Path, method: str, gt: Path, threads: int, timeout
                 "stages", "points"):
         if key in res:
             rec[key] = res[key]
+    return rec
+
+
+def run_stream(bench, cli: Path, method: str, gt: Path, threads: int, timeout: float,
+               work: Path) -> dict:
+    """`nhnet-cli estimate --stream` on the cloud's text file, then `nhnet-cli eval` of its output
+    against the same file's normals (the ground truth)."""
+    out, tiles = work / f"{gt.name}.{method}.xyzn", work / "stream-tiles"
+    tiles.mkdir(parents=True, exist_ok=True)
+    cmd = [str(cli), "estimate", str(gt), str(out), "--method", STREAM_METHODS[method], "--stream",
+           "--temp-dir", str(tiles), "--threads", str(threads), "--orient", "none", "--quiet",
+           "--json", "--overwrite"]
+    r = bench.run_child(cmd, timeout)
+    rec = {"method": method, "child_wall_s": r["wall_s"], "peak_mb": r["maxrss_mb"]}
+    res = bench.last_json(r["stdout"]) if r["rc"] == 0 else None
+    if res is None:
+        why = "timeout" if r["timed_out"] else f"exit {r['rc']}"
+        rec["error"] = f"{why}: {r['stderr'].strip()[-300:]}"
+        out.unlink(missing_ok=True)
+        return rec
+    # The whole process is the run: nothing was resident before it.
+    rec.update(time_s=res["seconds"], rss_before_mb=0.0, k_used=res["k"],
+               scales_used=res["scales"], points=res["points"], tiles=res["tiles"])
+    ev = bench.run_child([str(cli), "eval", str(out), str(gt), "--json"], timeout)
+    score = bench.last_json(ev["stdout"]) if ev["rc"] == 0 else None
+    if score is None:
+        rec["error"] = f"eval exit {ev['rc']}: {ev['stderr'].strip()[-300:]}"
+    else:
+        rec.update(mean_deg=score["mean_deg"], rms_deg=score["rms_deg"])
+    out.unlink(missing_ok=True)
     return rec
 
 
@@ -216,9 +253,11 @@ def main(argv: list[str], bench) -> int:
     if bad:
         ap.error(f"unknown methods {bad}; known: {','.join(LABELS)}")
     worker = Path(a.build) / "bench" / "nhnet-bench-worker"
-    if not os.access(worker, os.X_OK):
-        print(f"nhnet_bench: {worker} not built; run: bash scripts/build.sh", file=sys.stderr)
-        return 2
+    cli = Path(a.build) / "cli" / "nhnet-cli"
+    for exe in (worker, cli):
+        if not os.access(exe, os.X_OK):
+            print(f"nhnet_bench: {exe} not built; run: bash scripts/build.sh", file=sys.stderr)
+            return 2
     data = Path(a.data) if a.data else bench.REPO / "data" / "generated" / "scaling"
     out = Path(a.out) if a.out else bench.REPO / "build" / "bench-scaling"
     data.mkdir(parents=True, exist_ok=True)
@@ -233,30 +272,37 @@ def main(argv: list[str], bench) -> int:
     t0 = time.perf_counter()
     last_bpp: dict[str, float] = {}  # peak bytes/point of each method at the previous size
     for n in sizes:
-        # Predicted from the previous size's peak bytes per point of the methods that run at
-        # this size (nhnet's fixed libtorch overhead at a small size says nothing about 10M).
-        runs_here = [m for m in last_bpp if m != "nhnet" or n <= a.nhnet_max_points]
-        worst_bpp = max((last_bpp[m] for m in runs_here), default=0.0)
-        if worst_bpp and worst_bpp * n / 2**30 > max_rss:
-            why = (f"{n} points: the previous size's peak of {worst_bpp:.0f} bytes/point "
-                   f"predicts {worst_bpp * n / 2**30:.1f} GiB > {max_rss:.1f} GiB allowed")
+        # Each method's peak at this size is predicted from its own peak bytes per point at the
+        # previous size (nhnet's fixed libtorch overhead at a small size says nothing about 10M);
+        # a method that would not fit is skipped here, the others (--stream) still run.
+        def fits(m: str) -> bool:
+            if last_bpp.get(m, 0.0) * n / 2**30 <= max_rss:
+                return True
+            why = (f"{m} at {n} points: its peak of {last_bpp[m]:.0f} bytes/point at the size "
+                   f"before predicts {last_bpp[m] * n / 2**30:.1f} GiB > {max_rss:.1f} GiB allowed")
             meta["skipped"].append(why)
             log("skip " + why)
-            continue
-        gt = ensure_cloud(bench.datagen, data, a.model, n, log)
-        order = []
+            return False
+
+        todo = []
         for m in methods:
             if m == "nhnet" and n > a.nhnet_max_points:
                 meta["skipped"].append(f"nhnet at {n} points (--nhnet-max-points "
                                        f"{a.nhnet_max_points})")
-                continue
-            if m != "pcl-pca":
-                order.append("pcl-pca")
-                order.append(m)
-        order.append("pcl-pca")
+            elif m != "pcl-pca" and fits(m):
+                todo.append(m)
+        if not todo:
+            continue
+        gt = ensure_cloud(bench.datagen, data, a.model, n, log)
+        with_pcl = fits("pcl-pca")  # the reference of every ratio, run whether listed or not
+        order = []
+        for m in todo:
+            order += (["pcl-pca"] if with_pcl else []) + [m]
+        order += ["pcl-pca"] if with_pcl else []
         runs = []
         for m in order:
-            rec = run_method(bench, worker, m, gt, a.threads, a.timeout)
+            rec = (run_stream(bench, cli, m, gt, a.threads, a.timeout, out) if m in STREAM_METHODS
+                   else run_method(bench, worker, m, gt, a.threads, a.timeout))
             rec["n"] = n
             runs.append(rec)
             log(f"{n} {m}: " + (rec["error"] if "error" in rec else
@@ -265,11 +311,11 @@ def main(argv: list[str], bench) -> int:
             before = runs[i - 1] if i > 0 and runs[i - 1]["method"] == "pcl-pca" else None
             after = runs[i + 1] if i + 1 < len(runs) and runs[i + 1]["method"] == "pcl-pca" else None
             derive(rec, n, a.threads, before, after)
-        last_bpp = {}
+        here: dict[str, float] = {}  # a method skipped at this size keeps its older figure
         for rec in runs:
             if "error" not in rec:
-                last_bpp[rec["method"]] = max(last_bpp.get(rec["method"], 0.0),
-                                              rec["peak_bytes_per_point"])
+                here[rec["method"]] = max(here.get(rec["method"], 0.0), rec["peak_bytes_per_point"])
+        last_bpp.update(here)
         records += runs
     meta["wall_s"] = time.perf_counter() - t0
     md = report(records, meta, methods)
