@@ -4,11 +4,8 @@
 // becomes the identity), so a leaf's points are contiguous in memory and knn_all visits queries
 // in that order: the same tree, the same visiting order, the same results (ties included), 20-30 %
 // less neighbour-search time at 1M points (note on issue 10). Indices map back to input order.
-// The k best of a query are kept in a heap (knn_heap.hpp), not nanoflann's insertion-sorted
-// KNNResultSet: the same neighbours in the same order, fewer moves at large k.
 #include "nhnet/neighbors.hpp"
 
-#include "knn_heap.hpp"
 #include "nhnet/errors.hpp"
 #include "parallel.hpp"
 
@@ -75,12 +72,11 @@ void query_row(const TreeT& tree, const FloatCloud& cloud, const std::vector<uin
                DistanceMatrix* sq_distances) {
   thread_local std::vector<uint32_t> idx;
   thread_local std::vector<float> d2;
-  thread_local detail::KnnHeap<float, uint32_t> heap;
   idx.resize(kk);
   d2.resize(kk);
-  heap.reset(size_t(kk));
-  tree.findNeighbors(heap, &cloud.xyz[3 * p], nanoflann::SearchParams());
-  heap.finish(idx.data(), d2.data());  // kk <= points, so the heap is full
+  const float* q = &cloud.xyz[3 * p];
+  const size_t found = tree.knnSearch(q, size_t(kk), idx.data(), d2.data());
+  (void)found;
   // Exact duplicates can put another point first: make the query point column 0.
   if (idx[0] != uint32_t(p)) {
     auto it = std::find(idx.begin(), idx.end(), uint32_t(p));

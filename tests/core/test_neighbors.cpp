@@ -1,14 +1,11 @@
 // kd-tree: kNN matches brute force, self first even with duplicates, far-from-origin clouds.
 #include "fixtures.hpp"
 
-#include "knn_heap.hpp"
 #include "nhnet/neighbors.hpp"
 
 #include <gtest/gtest.h>
-#include <nanoflann.hpp>
 
 #include <algorithm>
-#include <random>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -27,46 +24,6 @@ TEST(Neighbors, KnnMatchesBruteForce) {
     std::sort(all.begin(), all.end());
     EXPECT_EQ(idx(i, 0), i);
     for (int t = 0; t < 12; ++t) EXPECT_NEAR(d2(i, t), all[size_t(t)], 1e-6);
-  }
-}
-
-// The heap result set must give exactly what nanoflann's KNNResultSet gives for the same stream
-// of candidates, tie order included (MFPS and the descriptors take prefixes of the rows, so an
-// order change would change results). Distances drawn from a few values force many ties; the
-// tree only offers a candidate below the worst distance it read at the start of a leaf, so the
-// stream is filtered the same way with a stale bound.
-TEST(Neighbors, HeapResultSetEqualsNanoflannsIncludingTies) {
-  std::mt19937 rng(7);
-  for (int trial = 0; trial < 300; ++trial) {
-    const size_t k = 1 + rng() % 130;
-    const int values = 1 + int(rng() % 40);
-    nanoflann::KNNResultSet<float, uint32_t> ref(k);
-    std::vector<uint32_t> ri(k);
-    std::vector<float> rd(k);
-    ref.init(ri.data(), rd.data());
-    detail::KnnHeap<float, uint32_t> heap;
-    heap.reset(k);
-    const int stream = int(k) + int(rng() % 600);
-    float bound_ref = ref.worstDist(), bound_heap = heap.worstDist();
-    for (int c = 0; c < stream; ++c) {
-      if (c % 10 == 0) {  // a new leaf: the tree re-reads the bound
-        bound_ref = ref.worstDist();
-        bound_heap = heap.worstDist();
-        ASSERT_EQ(bound_ref, bound_heap) << "trial " << trial;
-      }
-      const float d = float(rng() % uint32_t(values));
-      const uint32_t id = uint32_t(c * 3 + 1);
-      if (d < bound_ref) ref.addPoint(d, id);
-      if (d < bound_heap) heap.addPoint(d, id);
-    }
-    ASSERT_EQ(ref.size(), heap.size());
-    std::vector<uint32_t> hi(heap.size());
-    std::vector<float> hd(heap.size());
-    heap.finish(hi.data(), hd.data());
-    for (size_t j = 0; j < heap.size(); ++j) {
-      ASSERT_EQ(ri[j], hi[j]) << "trial " << trial << " rank " << j;
-      ASSERT_EQ(rd[j], hd[j]) << "trial " << trial << " rank " << j;
-    }
   }
 }
 
