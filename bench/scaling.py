@@ -65,14 +65,22 @@ def ensure_cloud(datagen, data: Path, model: str, n: int, log) -> Path:
     return gt
 
 
-def run_method(bench, worker: Path, method: str, gt: Path, threads: int, timeout: float) -> dict:
-    cmd = [str(worker), method, str(PCL_K), str(gt), "--threads", str(threads)]
+def run_json(bench, method: str, cmd: list[str], timeout: float) -> tuple[dict, dict | None]:
+    """Runs one method's child; returns its record (wall, peak; `error` when it failed) and the
+    JSON object it printed last (None when it failed)."""
     r = bench.run_child(cmd, timeout)
     rec = {"method": method, "child_wall_s": r["wall_s"], "peak_mb": r["maxrss_mb"]}
     res = bench.last_json(r["stdout"]) if r["rc"] == 0 else None
     if res is None:
         why = "timeout" if r["timed_out"] else f"exit {r['rc']}"
         rec["error"] = f"{why}: {r['stderr'].strip()[-300:]}"
+    return rec, res
+
+
+def run_method(bench, worker: Path, method: str, gt: Path, threads: int, timeout: float) -> dict:
+    rec, res = run_json(bench, method, [str(worker), method, str(PCL_K), str(gt), "--threads",
+                                        str(threads)], timeout)
+    if res is None:
         return rec
     for key in ("time_s", "rss_before_mb", "mean_deg", "rms_deg", "k_used", "scales_used",
                 "stages", "points"):
@@ -90,12 +98,8 @@ def run_stream(bench, cli: Path, method: str, gt: Path, threads: int, timeout: f
     cmd = [str(cli), "estimate", str(gt), str(out), "--method", STREAM_METHODS[method], "--stream",
            "--temp-dir", str(tiles), "--threads", str(threads), "--orient", "none", "--quiet",
            "--json", "--overwrite"]
-    r = bench.run_child(cmd, timeout)
-    rec = {"method": method, "child_wall_s": r["wall_s"], "peak_mb": r["maxrss_mb"]}
-    res = bench.last_json(r["stdout"]) if r["rc"] == 0 else None
+    rec, res = run_json(bench, method, cmd, timeout)
     if res is None:
-        why = "timeout" if r["timed_out"] else f"exit {r['rc']}"
-        rec["error"] = f"{why}: {r['stderr'].strip()[-300:]}"
         out.unlink(missing_ok=True)
         return rec
     # The whole process is the run: nothing was resident before it.
