@@ -105,10 +105,9 @@ def run_stream(bench, cli: Path, method: str, gt: Path, threads: int, timeout: f
     # The whole process is the run: nothing was resident before it.
     rec.update(time_s=res["seconds"], rss_before_mb=0.0, k_used=res["k"],
                scales_used=res["scales"], points=res["points"], tiles=res["tiles"])
-    ev = bench.run_child([str(cli), "eval", str(out), str(gt), "--json"], timeout)
-    score = bench.last_json(ev["stdout"]) if ev["rc"] == 0 else None
+    ev, score = run_json(bench, method, [str(cli), "eval", str(out), str(gt), "--json"], timeout)
     if score is None:
-        rec["error"] = f"eval exit {ev['rc']}: {ev['stderr'].strip()[-300:]}"
+        rec["error"] = "eval " + ev["error"]
     else:
         rec.update(mean_deg=score["mean_deg"], rms_deg=score["rms_deg"])
     out.unlink(missing_ok=True)

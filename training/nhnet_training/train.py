@@ -126,14 +126,15 @@ def train(cfg: TrainConfig, data: dict | None = None, log=print) -> dict:
         v = evaluate(model, xv, yv)
         row = {"epoch": epoch, "train_loss": total / max(seen, 1), "val_deg": v,
                "minutes": (time.time() - t0) / 60}
-        v_avg = evaluate(average.model, xv, yv) if average is not None else float("inf")
+        kind, v_kept, kept, shown = "raw", v, model, ""
         if average is not None:
-            row["val_deg_average"] = v_avg
+            v_avg = row["val_deg_average"] = evaluate(average.model, xv, yv)
+            shown = f" (average {v_avg:.3f})"
+            if v_avg < v:
+                kind, v_kept, kept = "average", v_avg, average.model
         history.append(row)
-        log(f"[train] epoch {epoch} loss {total / max(seen, 1):.5f} val {v:.3f} deg"
-            + (f" (average {v_avg:.3f})" if average is not None else "")
-            + f" (MFPS {base_val:.3f}) {(time.time() - t0) / 60:.1f} min")
-        kind, v_kept, kept = ("average", v_avg, average.model) if v_avg < v else ("raw", v, model)
+        log(f"[train] epoch {epoch} loss {total / max(seen, 1):.5f} val {v:.3f} deg{shown} "
+            f"(MFPS {base_val:.3f}) {(time.time() - t0) / 60:.1f} min")
         if v_kept < best:
             best, best_epoch, best_kind = v_kept, epoch, kind
             torch.save({"model": kept.state_dict(), "config": cfg.to_json(),
