@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <iterator>
 
 namespace nhnet::detail {
 
@@ -15,6 +16,7 @@ namespace nhnet::detail {
 struct InsideOutside::Grid {
   Eigen::RowVector3d origin;
   double h = 1;
+  int dilation = 2;  // steps the occupied voxels were dilated by
   std::array<int64_t, 3> dims{};
   std::vector<uint8_t> cell;  // 0 empty, 1 occupied, 2 outside (flood-filled empty)
 
@@ -38,15 +40,24 @@ using Grid = InsideOutside::Grid;
 // Offsets tried, in voxels: the first one that puts exactly one side outside decides, if the
 // other side is still not outside kMargin voxels farther (a wall thinner than the offsets is
 // crossed at nearly the same step on both sides, and an exact plane on voxel boundaries tips
-// either way: those stay undecided).
+// either way: those stay undecided). Along the normal itself a grid dilated by more than 2
+// steps adds one offset a voxel farther per extra step (its occupied shell is that much
+// thicker); the tilted directions keep these five.
 constexpr double kSteps[] = {1.0, 1.5, 2.0, 3.0, 4.0};
+constexpr int kBaseSteps = int(std::size(kSteps));
 constexpr double kMargin = 0.5;
 
-// The side of direction `dir` at p: +1 / -1 / 0 as above; *leaked is set when both offsets of
-// a step reached the outside.
+// The offset of step k (k >= kBaseSteps: the extra steps, a voxel apart).
+double step_offset(int k) {
+  return k < kBaseSteps ? kSteps[k] : kSteps[kBaseSteps - 1] + double(k + 1 - kBaseSteps);
+}
+
+// The side of direction `dir` at p: +1 / -1 / 0 as above, over kSteps and `extra` steps past
+// them; *leaked is set when both offsets of a step reached the outside.
 int8_t side(const Grid& g, const Eigen::RowVector3d& p, const Eigen::RowVector3d& dir,
-            bool* leaked) {
-  for (const double s : kSteps) {
+            bool* leaked, int extra) {
+  for (int k = 0; k < kBaseSteps + extra; ++k) {
+    const double s = step_offset(k);
     const Eigen::RowVector3d d = (s * g.h) * dir;
     const bool a = g.outside(p + d), b = g.outside(p - d);
     if (a && b && leaked) *leaked = true;
@@ -61,7 +72,7 @@ int8_t side(const Grid& g, const Eigen::RowVector3d& p, const Eigen::RowVector3d
 // The vote for n at p: along n, else the majority of six directions tilted around it.
 int8_t grid_vote(const Grid& g, const Eigen::RowVector3d& p, const Eigen::RowVector3d& n,
                  bool* leaked) {
-  const int8_t v = side(g, p, n, leaked);
+  const int8_t v = side(g, p, n, leaked, std::max(0, g.dilation - 2));
   if (v != 0) return v;
   // Undecided along the normal (a concave corner, a narrow gap, a wall thinner than the
   // dilation): six directions tilted by 30 degrees around it vote, each by the same rule, and
@@ -76,7 +87,7 @@ int8_t grid_vote(const Grid& g, const Eigen::RowVector3d& p, const Eigen::RowVec
     const double phi = double(k) * M_PI / 3;
     sum += side(g, p,
                 std::cos(M_PI / 6) * n + std::sin(M_PI / 6) * (std::cos(phi) * t1 + std::sin(phi) * t2),
-                nullptr);
+                nullptr, 0);
   }
   return int8_t(sum > 0 ? 1 : sum < 0 ? -1 : 0);
 }
@@ -84,6 +95,7 @@ int8_t grid_vote(const Grid& g, const Eigen::RowVector3d& p, const Eigen::RowVec
 Grid build_grid(const Points& pts, double h, int dilation) {
   Grid g;
   g.h = h;
+  g.dilation = dilation;
   const Eigen::RowVector3d lo = pts.colwise().minCoeff(), hi = pts.colwise().maxCoeff();
   const int pad = dilation + 3;
   // The grid is shifted by 0.37 voxel so that a face on the bounding box (or any coordinate
@@ -158,21 +170,23 @@ InsideOutside::InsideOutside(const Points& points, const Normals& normals, doubl
     if (!std::isfinite(h) || !(h > 0)) break;
     if (h <= last_h) continue;  // capped by max_side: the same grid again
     last_h = h;
-    auto g = std::make_unique<Grid>(build_grid(points, h, options.dilation));
-    ++grids_built_;
-    std::vector<uint8_t> leaked(static_cast<size_t>(m), 0);
-    parallel_for(m, threads, nullptr, [&](int64_t i) {
-      bool l = false;
-      votes[size_t(i)] = grid_vote(*g, points.row(i), normals.row(i), &l);
-      leaked[size_t(i)] = l ? 1 : 0;
-    });
-    int64_t both = 0;
-    for (const uint8_t l : leaked) both += l;
-    leak_ = double(both) / double(m);
-    if (leak_ < options.max_leak) {
-      votes_.swap(votes);
-      grid_ = std::move(g);
-      return;
+    for (const int dilation : options.dilations) {
+      auto g = std::make_unique<Grid>(build_grid(points, h, dilation));
+      ++grids_built_;
+      std::vector<uint8_t> leaked(static_cast<size_t>(m), 0);
+      parallel_for(m, threads, nullptr, [&](int64_t i) {
+        bool l = false;
+        votes[size_t(i)] = grid_vote(*g, points.row(i), normals.row(i), &l);
+        leaked[size_t(i)] = l ? 1 : 0;
+      });
+      int64_t both = 0;
+      for (const uint8_t l : leaked) both += l;
+      leak_ = double(both) / double(m);
+      if (leak_ < options.max_leak) {
+        votes_.swap(votes);
+        grid_ = std::move(g);
+        return;
+      }
     }
   }
 }

@@ -106,3 +106,44 @@ TEST(InsideOutside, FarOutlierGetsNoGrid) {
   EXPECT_GT(near.voxel(), 0.0);
   EXPECT_GE(shares(near.votes()).first, 0.999);
 }
+
+TEST(InsideOutside, OneMoreDilationBeforeACoarserVoxel) {
+  // A sphere with a band 6 spacings wide cut out around its equator: the fill leaks through
+  // the band unless the dilation closes it. With the dilation of 2 alone the first watertight
+  // grid is 2.5 spacings (measured 2.5); trying a dilation of 3 at each voxel first closes it
+  // at 2 spacings (measured), the finer grid that resolves thin parts (rotor's blades). The
+  // votes stay right: every decided normal outward.
+  const fixtures::Fixture f = fixtures::sphere(40000, 1);
+  const double s = spacing(f.points);
+  std::vector<Eigen::Index> keep;
+  for (Eigen::Index i = 0; i < f.points.rows(); ++i)
+    if (std::abs(f.points(i, 2)) > 3 * s) keep.push_back(i);
+  Points p(Eigen::Index(keep.size()), 3);
+  Normals n(Eigen::Index(keep.size()), 3);
+  for (size_t r = 0; r < keep.size(); ++r) {
+    p.row(Eigen::Index(r)) = f.points.row(keep[r]);
+    n.row(Eigen::Index(r)) = f.normals.row(keep[r]);
+  }
+  nhnet::detail::InsideOutsideOptions two;
+  two.dilations = {2};
+  const InsideOutside both(p, n, s), only_two(p, n, s, two);
+  ASSERT_GT(both.voxel(), 0.0);
+  ASSERT_GT(only_two.voxel(), 0.0);
+  EXPECT_LE(both.voxel(), 2.0 * s * (1 + 1e-9));
+  EXPECT_GE(only_two.voxel(), 2.5 * s * (1 - 1e-9));
+  EXPECT_GE(shares(both.votes()).first, 0.999);
+  EXPECT_EQ(shares(both.votes()).second, 0.0);
+
+  // At each voxel the smaller dilation comes first: a grid watertight with it (the cube at
+  // 2.5 spacings) is used as it is, with its votes, whatever dilations follow it.
+  const fixtures::Fixture cube = fixtures::cube(20000, 0.01, 2);
+  const double sc = spacing(cube.points);
+  nhnet::detail::InsideOutsideOptions coarse, coarse_two;
+  coarse.voxel_spacings = coarse_two.voxel_spacings = {2.5};
+  coarse_two.dilations = {2};
+  const InsideOutside a(cube.points, cube.normals, sc, coarse),
+      b(cube.points, cube.normals, sc, coarse_two);
+  ASSERT_GT(b.voxel(), 0.0);
+  EXPECT_EQ(a.voxel(), b.voxel());
+  EXPECT_EQ(a.votes(), b.votes());
+}
