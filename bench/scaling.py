@@ -30,6 +30,7 @@ import datetime as dt
 import json
 import math
 import os
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -53,15 +54,35 @@ def noise_percent(n: int) -> float:
     return BASE_NOISE_PERCENT * math.sqrt(BASE_POINTS / n)
 
 
+# ensure_cloud's child: samples the mesh, adds the noise, writes MODEL_N.gt.xyzn.
+_SAMPLE_CODE = """
+import sys
+from pathlib import Path
+from nhnet_training import datagen
+gt, model, n, noise = Path(sys.argv[1]), sys.argv[2], int(sys.argv[3]), float(sys.argv[4])
+clean, normals, _, seed = datagen.sample_clean(model, "uniform", n)
+noisy, _ = datagen.add_noise(clean, noise, seed + 1)
+datagen.write_cloud(gt.parent / gt.name[: -len(".gt.xyzn")], noisy, normals, clean,
+                    files=("gt.xyzn",))
+"""
+
+
 def ensure_cloud(datagen, data: Path, model: str, n: int, log) -> Path:
+    """The cloud of n points (data/MODEL_N.gt.xyzn), sampled when missing in a process of its
+    own: a child reports a peak RSS (ru_maxrss) of at least its parent's peak, so a 10M-point
+    cloud sampled in this process (5 GB) became every method's peak at every later size."""
     gt = data / f"{model}_{n}.gt.xyzn"
     if gt.exists():
         return gt
     log(f"data: sampling {n} points from {model} (noise {noise_percent(n):.4f} % of the diagonal)")
-    clean, normals, _, seed = datagen.sample_clean(model, "uniform", n)
-    noisy, _ = datagen.add_noise(clean, noise_percent(n), seed + 1)
-    datagen.write_cloud(gt.parent / gt.name[: -len(".gt.xyzn")], noisy, normals, clean,
-                        files=("gt.xyzn",))
+    gt.parent.mkdir(parents=True, exist_ok=True)
+    package_dir = str(Path(datagen.__file__).resolve().parents[1])  # holds nhnet_training
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (package_dir, env.get("PYTHONPATH")) if p)
+    done = subprocess.run([sys.executable, "-c", _SAMPLE_CODE, str(gt), model, str(n),
+                           repr(noise_percent(n))], env=env)
+    if done.returncode != 0 or not gt.exists():
+        raise RuntimeError(f"sampling {gt} failed (exit code {done.returncode})")
     return gt
 
 
