@@ -118,12 +118,8 @@ TEST(InsideOutside, OneMoreDilationBeforeACoarserVoxel) {
   std::vector<Eigen::Index> keep;
   for (Eigen::Index i = 0; i < f.points.rows(); ++i)
     if (std::abs(f.points(i, 2)) > 3 * s) keep.push_back(i);
-  Points p(Eigen::Index(keep.size()), 3);
-  Normals n(Eigen::Index(keep.size()), 3);
-  for (size_t r = 0; r < keep.size(); ++r) {
-    p.row(Eigen::Index(r)) = f.points.row(keep[r]);
-    n.row(Eigen::Index(r)) = f.normals.row(keep[r]);
-  }
+  const Points p = f.points(keep, Eigen::all);
+  const Normals n = f.normals(keep, Eigen::all);
   nhnet::detail::InsideOutsideOptions two;
   two.dilations = {2};
   const InsideOutside both(p, n, s), only_two(p, n, s, two);
