@@ -1,9 +1,12 @@
 // Calibration of the noise-driven scale rule (scales.cpp): for each cloud with ground truth
 // (x y z nx ny nz text), mode `pca` prints the noise ratio rho (as the pipeline computes it) and
 // the RMS angle error of PCA at a range of k (input of tools/fit_scale_table.py); any other
-// mode runs estimate_normals with the given overrides and prints its accuracy and time.
+// mode runs estimate_normals with the given overrides and prints its accuracy and time; mode
+// `blend=DIR` writes the MFPS PCA blend's features of every cloud to DIR (input of
+// tools/fit_mfps_blend.py).
 // Usage: see tools/README.md.
 #include "nhnet/estimate.hpp"
+#include "nhnet/mfps.hpp"
 #include "nhnet/metrics.hpp"
 #include "nhnet/neighbors.hpp"
 #include "nhnet/pca.hpp"
@@ -12,6 +15,7 @@
 #include <chrono>
 #include <cstdio>
 #include <cstring>
+#include <initializer_list>
 #include <string>
 #include <vector>
 
@@ -63,6 +67,37 @@ int main(int argc, char** argv) {
         std::printf(" k%d=%.2f", k, angle_stats(r.normals, gt).rms);
       }
       std::printf("\n");
+    } else if (mode.rfind("blend=", 0) == 0) {
+      // Per candidate with blend features: input row, the features, the MFPS normal before the
+      // blend, the PCA normal and the ground truth; the header has the squared error summed
+      // over every other point (where the blend changes nothing).
+      EstimateOptions o;
+      o.mfps_record_blend = true;
+      const EstimateResult r = estimate_normals(p, o);
+      o.method = Method::Pca;
+      o.k = r.k_used;
+      const EstimateResult pca = estimate_normals(p, o);
+      Normals rest = r.normals;
+      for (size_t t = 0; t < r.mfps_blend_rows.size(); ++t)
+        rest.row(r.mfps_blend_rows[t]) = gt.row(r.mfps_blend_rows[t]);
+      const AngleStats others = angle_stats(rest, gt);
+      const std::string out = mode.substr(6) + "/" + name + ".blend.txt";
+      FILE* f = std::fopen(out.c_str(), "w");
+      if (!f) return 6;
+      std::fprintf(f, "# points %ld rest_sq_sum %.9g\n", long(p.rows()),
+                   others.rms * others.rms * double(p.rows()));
+      for (size_t t = 0; t < r.mfps_blend_rows.size(); ++t) {
+        const int64_t i = r.mfps_blend_rows[t];
+        std::fprintf(f, "%ld", long(i));
+        for (int q = 0; q < kMfpsBlendFeatures; ++q) std::fprintf(f, " %.9g", r.mfps_blend_features(Eigen::Index(t), q));
+        for (const Normals* m : std::initializer_list<const Normals*>{&r.mfps_unblended, &pca.normals, &gt}) {
+          const Eigen::Index row = m == &r.mfps_unblended ? Eigen::Index(t) : Eigen::Index(i);
+          for (int d = 0; d < 3; ++d) std::fprintf(f, " %.9g", (*m)(row, d));
+        }
+        std::fprintf(f, "\n");
+      }
+      std::fclose(f);
+      std::printf(" rows=%zu -> %s\n", r.mfps_blend_rows.size(), out.c_str());
     } else {
       // mode: "auto" or a comma list of EstimateOptions overrides: k=..,s=a/b/c,samples=..,
       // subset=..,rescore=..,refine=..,method=pca|mfps
@@ -84,6 +119,7 @@ int main(int argc, char** argv) {
         if (key == "beta") o.mfps_posterior_beta = std::stod(val);
         if (key == "geo") o.mfps_edge_sigma_factor = std::stod(val);
         if (key == "fpt") o.mfps_point_sigma_factor = std::stod(val);
+        if (key == "pcablend") o.mfps_pca_blend = std::stoi(val) != 0;
         if (key == "s") {
           size_t q = 0;
           while (q < val.size()) {

@@ -38,6 +38,7 @@ DescriptorInput prepare_descriptors(const Points& points, const DescriptorOption
   DescriptorInput in;
   EstimateOptions eo = options.estimate;
   eo.method = Method::Mfps;
+  eo.mfps_pca_blend = options.mfps_pca_blend;
   eo.run = detail::narrow(options.estimate.run, 0, 0.9);
   in.geometry = estimate_normals(points, eo);
   const Eigen::Index n = points.rows();

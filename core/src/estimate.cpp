@@ -301,10 +301,22 @@ EstimateResult estimate_normals(const Points& points, const EstimateOptions& opt
     mo.point_sigma_factor = options.mfps_point_sigma_factor;
     mo.posterior_beta = options.mfps_posterior_beta;
     mo.edge_sigma_factor = options.mfps_edge_sigma_factor;
+    mo.pca_blend = options.mfps_pca_blend;
+    mo.record_blend_features = options.mfps_record_blend;
     const MfpsResult mr = mfps_normals(pts, knn, 2.0 * bw, fd.candidate, pca.normals, mo,
                                        detail::narrow(run, 0.55, 1.0));
     res.scales_used = mo.scales;
     out = mr.normals;
+    if (options.mfps_record_blend) {
+      const Eigen::Index rows = Eigen::Index(mr.blend_rows.size());
+      res.mfps_blend_features = mr.blend_features;
+      res.mfps_unblended.resize(rows, 3);
+      for (Eigen::Index r = 0; r < rows; ++r) {
+        const int64_t i = mr.blend_rows[size_t(r)];
+        res.mfps_blend_rows.push_back(finite[size_t(i)]);
+        res.mfps_unblended.row(r) = mr.unblended_normals.row(i);
+      }
+    }
   }
 
   if (options.method == Method::Mfps && kdepth >= 3) {

@@ -10,6 +10,7 @@
 #include <Eigen/Eigenvalues>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -93,9 +94,11 @@ double objective(const std::vector<Eigen::Vector3d>& q, const Plane& pl, double 
 
 /// P(point p lies on face B) for two faces meeting at the edge line of planes (n1, c1) and
 /// (n2, c2), each face being the half-plane on the side of its centre c; noise std s. Returns
-/// -1 when the planes are (nearly) parallel.
+/// -1 when the planes are (nearly) parallel. `line_distance` (when given and the planes meet)
+/// receives the distance from p to the edge line.
 double edge_posterior(const Eigen::Vector3d& p, const Eigen::Vector3d& n1, const Eigen::Vector3d& c1,
-                      const Eigen::Vector3d& n2, const Eigen::Vector3d& c2, double s) {
+                      const Eigen::Vector3d& n2, const Eigen::Vector3d& c2, double s,
+                      double* line_distance = nullptr) {
   const Eigen::Vector3d d = n1.cross(n2);
   const double dn = d.norm();
   if (!(dn > 1e-3) || !(s > 0)) return -1;
@@ -107,6 +110,7 @@ double edge_posterior(const Eigen::Vector3d& p, const Eigen::Vector3d& n1, const
   const Eigen::Vector3d b(n1.dot(c1), n2.dot(c2), (d / dn).dot(p));
   const Eigen::Vector3d e = a.partialPivLu().solve(b);
   if (!e.allFinite()) return -1;
+  if (line_distance) *line_distance = (p - e).norm();
   auto loglik = [&](const Eigen::Vector3d& n, const Eigen::Vector3d& c) {
     Eigen::Vector3d u = (d / dn).cross(n);
     if ((c - e).dot(u) < 0) u = -u;
@@ -116,6 +120,49 @@ double edge_posterior(const Eigen::Vector3d& p, const Eigen::Vector3d& n1, const
   };
   const double la = loglik(n1, c1), lb = loglik(n2, c2);
   return 1.0 / (1.0 + std::exp(std::clamp(la - lb, -700.0, 700.0)));
+}
+
+/// Coefficients of the PCA blend (MfpsOptions::pca_blend), in the order of the features listed
+/// at kMfpsBlendFeatures (mfps.hpp):
+/// fitted by tools/fit_mfps_blend.py on the training split only (16 CAD models x noise 0, 0.1,
+/// 0.3, 0.6 %), minimising the squared angle error of every candidate.
+constexpr std::array<double, kMfpsBlendFeatures> kBlendCoefficients = {
+    -6.1937, 2.0507, -1.2236, -3.0473, -1.4346, -1.4823, 0.3924, 2.8464, 0.3065, -14.9236, -14.7471, 4.6259};
+
+/// Weight of the PCA normal in the final normal of a candidate (logistic in the features).
+double blend_weight(const std::array<double, kMfpsBlendFeatures>& f) {
+  double z = 0;
+  for (int t = 0; t < kMfpsBlendFeatures; ++t) z += kBlendCoefficients[size_t(t)] * f[size_t(t)];
+  return 1.0 / (1.0 + std::exp(-std::clamp(z, -50.0, 50.0)));
+}
+
+/// Unoriented angle between unit vectors, radians.
+double line_angle(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  return std::acos(std::min(1.0, std::abs(a.dot(b))));
+}
+
+/// Rotates unit `a` towards unit `b` (sign-aligned) by fraction t of the angle between them.
+Eigen::Vector3d slerp_towards(const Eigen::Vector3d& a, Eigen::Vector3d b, double t) {
+  if (b.dot(a) < 0) b = -b;
+  const double theta = std::acos(std::clamp(a.dot(b), -1.0, 1.0));
+  if (!(theta > 1e-9)) return a;
+  const Eigen::Vector3d v = (std::sin((1 - t) * theta) * a + std::sin(t * theta) * b) / std::sin(theta);
+  return v.allFinite() && v.norm() > 0.5 ? Eigen::Vector3d(v.normalized()) : a;
+}
+
+/// 1 - mean |n_i . n_j| over the first `k` neighbours of row i (self included).
+double inconsistency(const Normals& normals, const IndexMatrix& knn, Eigen::Index i, int k) {
+  const int kk = int(std::min<Eigen::Index>(k, knn.cols()));
+  const Eigen::Vector3d ni = normals.row(i).transpose();
+  double sum = 0;
+  int used = 0;
+  for (int t = 0; t < kk; ++t) {
+    const Eigen::Vector3d nj = normals.row(knn(i, t)).transpose();
+    if (!nj.allFinite()) continue;
+    sum += std::abs(ni.dot(nj));
+    ++used;
+  }
+  return used ? 1.0 - sum / used : 0.0;
 }
 
 }  // namespace
@@ -347,12 +394,18 @@ MfpsResult mfps_normals(const Points& points, const IndexMatrix& knn, const Eige
     }
     reduce(rival_all, rival_slot);
   }
+  // Candidates with a rival, and their blend features (all but the two neighbourhood ones,
+  // which need every point's final normal first).
+  const bool want_features = options.pca_blend || options.record_blend_features;
+  std::vector<int64_t> blended_rows;
+  std::vector<std::array<double, kMfpsBlendFeatures>> features;
   for (Eigen::Index i = 0; i < n; ++i) {
     const int32_t c = cand_id[size_t(i)];
     if (c < 0) continue;
     const int64_t slot = slot_all[size_t(c)];
     if (slot < 0) continue;  // no patch (only when every patch containing it was degenerate)
     Eigen::Vector3d nrm = plane_n[size_t(slot)].cast<double>().normalized();
+    const Eigen::Vector3d winner = nrm;
     const int64_t rs = blend ? rival_slot[size_t(c)] : -1;
     if (rs >= 0 && best_all[size_t(c)] > 0 && rival_all[size_t(c)] > 0) {
       // P(rival) from the score ratio; rotating the winner towards the rival by P(rival) times
@@ -361,21 +414,59 @@ MfpsResult mfps_normals(const Points& points, const IndexMatrix& knn, const Eige
       if (n2.dot(nrm) < 0) n2 = -n2;
       double p2 =
           1.0 / (1.0 + std::pow(best_all[size_t(c)] / rival_all[size_t(c)], options.posterior_beta));
+      const double p_score = p2;
+      double geo = -1, line_distance = std::numeric_limits<double>::infinity();
       if (options.edge_sigma_factor > 0) {
         const double s = options.edge_sigma_factor * sigma[i];
-        const double geo = edge_posterior(points.row(i).transpose(), nrm, plane_c[size_t(slot)], n2,
-                                          plane_c[size_t(rs)], s);
+        geo = edge_posterior(points.row(i).transpose(), nrm, plane_c[size_t(slot)], n2,
+                             plane_c[size_t(rs)], s, &line_distance);
         if (geo >= 0) p2 = p2 * geo / (p2 * geo + (1 - p2) * (1 - geo));
       }
-      const double theta = std::acos(std::clamp(nrm.dot(n2), -1.0, 1.0));
-      if (theta > 1e-9) {
-        const Eigen::Vector3d v =
-            (std::sin((1 - p2) * theta) * nrm + std::sin(p2 * theta) * n2) / std::sin(theta);
-        if (v.allFinite() && v.norm() > 0.5) nrm = v.normalized();
+      nrm = slerp_towards(nrm, n2, p2);
+      if (want_features) {
+        const Eigen::Vector3d pca = base_normals.row(i).transpose();
+        const double theta = line_angle(winner, n2);
+        const double a_pca_win = line_angle(pca, winner);
+        std::array<double, kMfpsBlendFeatures> f{};
+        f[0] = 1;                                   // intercept
+        f[1] = 4 * p2 * (1 - p2);                   // uncertainty of the final posterior
+        f[2] = theta;                               // winner-rival angle (rad)
+        f[3] = line_angle(pca, nrm);                // PCA vs this normal (rad)
+        f[4] = std::min(line_distance / (0.5 * sigma[i]), 10.0) / 10;  // to the edge line
+        f[5] = 4 * p_score * (1 - p_score);         // uncertainty of the score posterior
+        f[6] = geo >= 0 ? std::abs(2 * geo - 1) : 0;  // confidence of the edge posterior
+        f[7] = a_pca_win + line_angle(pca, n2) - theta;  // PCA off the winner-rival arc (rad)
+        f[10] = std::log(std::max(best_all[size_t(c)], 1e-6));  // winner's score D (Eq. 4)
+        f[11] = a_pca_win;                          // PCA vs winner (rad)
+        for (double& v : f)
+          if (!std::isfinite(v)) v = 0;
+        blended_rows.push_back(i);
+        features.push_back(f);
       }
     }
     res.normals.row(i) = nrm.transpose();
     res.chosen_scale[size_t(i)] = scales[size_t(slot % ns)];
+  }
+  if (want_features) {
+    // The neighbourhood features read the normals before any blending, so the result does not
+    // depend on the order in which points are blended.
+    const Normals before = res.normals;
+    for (size_t t = 0; t < blended_rows.size(); ++t) {
+      const Eigen::Index i = blended_rows[t];
+      features[t][8] = inconsistency(before, knn, i, kBlendNeighbours);
+      features[t][9] = inconsistency(base_normals, knn, i, kBlendNeighbours);
+      if (options.pca_blend)
+        res.normals.row(i) = slerp_towards(before.row(i).transpose(),
+                                           base_normals.row(i).transpose(), blend_weight(features[t]))
+                                 .transpose();
+    }
+    if (options.record_blend_features) {
+      res.blend_rows = std::move(blended_rows);
+      res.blend_features.resize(Eigen::Index(features.size()), kMfpsBlendFeatures);
+      for (size_t t = 0; t < features.size(); ++t)
+        for (int q = 0; q < kMfpsBlendFeatures; ++q) res.blend_features(Eigen::Index(t), q) = features[t][size_t(q)];
+      res.unblended_normals = before;
+    }
   }
   if (run.progress) {
     progress.report(1.0);

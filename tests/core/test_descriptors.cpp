@@ -145,3 +145,21 @@ TEST(Descriptors, InvariantToRotationTranslationScale) {
   // (sample rejection, feature threshold) through round-off of the moved coordinates.
   EXPECT_GE(same, int(0.99 * rows));
 }
+
+TEST(Descriptors, GeometryStageWithoutThePcaBlend) {
+  // The shipped model was trained on MFPS normals without the PCA blend; training (through the
+  // Python bindings) and inference both take their normals from describe()/prepare_descriptors,
+  // which must therefore leave the blend off whatever EstimateOptions say.
+  const auto f = fixtures::cube(6000, 0.006 * 2 * std::sqrt(3.0), 4);
+  DescriptorOptions d;
+  d.estimate.mfps_pca_blend = true;  // ignored: DescriptorOptions::mfps_pca_blend decides
+  const Descriptors des = describe(f.points, d);
+  EstimateOptions o;
+  o.mfps_pca_blend = false;
+  const EstimateResult plain = estimate_normals(f.points, o);
+  o.mfps_pca_blend = true;
+  const EstimateResult blended = estimate_normals(f.points, o);
+  ASSERT_EQ(des.geometry.normals.rows(), plain.normals.rows());
+  EXPECT_EQ((des.geometry.normals - plain.normals).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_GT((blended.normals - plain.normals).cwiseAbs().maxCoeff(), 1e-3);  // the blend acts here
+}

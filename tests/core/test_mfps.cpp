@@ -117,6 +117,7 @@ TEST(Mfps, EdgePosteriorLowersErrorNearEdges) {
   const auto f = fixtures::cube(20000, noise, 11);
   auto rms_near = [&](double beta, double geo) {
     EstimateOptions o;
+    o.mfps_pca_blend = false;  // the posterior steps alone (the blend has its own test)
     o.mfps_posterior_beta = beta;
     o.mfps_edge_sigma_factor = geo;
     const EstimateResult r = estimate_normals(f.points, o);
@@ -139,4 +140,61 @@ TEST(Mfps, EdgePosteriorLowersErrorNearEdges) {
   // a few tenths of a degree between fixture seeds.
   EXPECT_LT(score + 1.0, argmax) << argmax << " " << score << " " << both;
   EXPECT_LT(both + 1.0, score) << argmax << " " << score << " " << both;
+}
+
+namespace {
+double rms_deg(const Normals& est, const Normals& truth) {
+  const Eigen::VectorXd e = angle_errors_deg(est, truth);
+  return std::sqrt(e.squaredNorm() / double(e.size()));
+}
+double angle_deg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  return std::acos(std::min(1.0, std::abs(a.normalized().dot(b.normalized())))) * 180.0 / M_PI;
+}
+}  // namespace
+
+TEST(Mfps, PcaBlendLowersRmsAtHighNoise) {
+  // Cube with 2 % noise (sigma ~ 1.4 spacings at 20k points; the 0.6 % benchmark clouds of
+  // 100k points have ~4.6). Within about one noise sigma of an edge the face a point came from
+  // cannot be told; the blend (mfps.hpp, coefficients fitted on other models) moves such
+  // candidates towards their PCA normal, whose large neighbourhood straddles the edge.
+  const double noise = 0.02 * 2 * std::sqrt(3.0);
+  const auto f = fixtures::cube(20000, noise, 11);
+  EstimateOptions o;
+  o.mfps_record_blend = true;
+  const EstimateResult blended = estimate_normals(f.points, o);
+  o.mfps_pca_blend = false;
+  const EstimateResult plain = estimate_normals(f.points, o);
+  o.method = Method::Pca;
+  o.k = plain.k_used;
+  const EstimateResult pca = estimate_normals(f.points, o);
+  const double rb = rms_deg(blended.normals, f.normals), rp = rms_deg(plain.normals, f.normals),
+               rpca = rms_deg(pca.normals, f.normals);
+  RecordProperty("rms_blend", std::to_string(rb));
+  RecordProperty("rms_mfps", std::to_string(rp));
+  RecordProperty("rms_pca", std::to_string(rpca));
+  // Measured (whole cloud, degrees): blend 21.35, without 21.66, PCA 21.94; fixture seeds 12 and
+  // 13: gains of 0.27 / 0.23 over MFPS and 0.66 / 0.57 over PCA. Margins 0.15 and 0.4: the
+  // fixture is deterministic, and the smallest gain seen over seeds keeps clear of them.
+  EXPECT_LT(rb + 0.15, rp) << rb << " " << rp << " " << rpca;
+  EXPECT_LT(rb + 0.4, rpca) << rb << " " << rp << " " << rpca;
+
+  // The blend only rotates recorded candidates from their MFPS normal towards their PCA normal
+  // (on the arc between them, within float rounding); every other normal is unchanged.
+  ASSERT_FALSE(blended.mfps_blend_rows.empty());
+  ASSERT_EQ(blended.mfps_blend_features.rows(), Eigen::Index(blended.mfps_blend_rows.size()));
+  ASSERT_EQ(blended.mfps_blend_features.cols(), kMfpsBlendFeatures);
+  std::vector<uint8_t> is_blended(size_t(f.points.rows()), 0);
+  for (size_t t = 0; t < blended.mfps_blend_rows.size(); ++t) {
+    const int64_t i = blended.mfps_blend_rows[t];
+    is_blended[size_t(i)] = 1;
+    EXPECT_EQ(blended.mfps_blend_features(Eigen::Index(t), 0), 1.0);
+    const Eigen::Vector3d m = plain.normals.row(i).transpose(), p = pca.normals.row(i).transpose(),
+                          b = blended.normals.row(i).transpose();
+    EXPECT_NEAR(angle_deg(m, b) + angle_deg(b, p), angle_deg(m, p), 1e-3) << "row " << i;
+    EXPECT_LT(angle_deg(blended.mfps_unblended.row(Eigen::Index(t)).transpose(), m), 1e-6);
+  }
+  int64_t moved = 0;
+  for (Eigen::Index i = 0; i < f.points.rows(); ++i)
+    if (!is_blended[size_t(i)]) moved += angle_deg(blended.normals.row(i).transpose(), plain.normals.row(i).transpose()) > 1e-9;
+  EXPECT_EQ(moved, 0);
 }

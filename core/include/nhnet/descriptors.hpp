@@ -33,8 +33,11 @@ struct DescriptorOptions {
   HeightMapOptions map;
   /// Descriptor neighbourhood = ceil(factor * smallest MFPS scale). Authors' code: 1.5.
   double neighborhood_factor = 1.5;
-  /// Geometry stage (MFPS; `method` is ignored) and threads / progress.
+  /// Geometry stage (MFPS; `method` and `mfps_pca_blend` are ignored) and threads / progress.
   EstimateOptions estimate;
+  /// MFPS PCA blend of the geometry stage. Off: the shipped model (v6) was trained on MFPS
+  /// normals without it, and training and inference both come through here, so they agree.
+  bool mfps_pca_blend = false;
 };
 
 /// Number of floats per point for these options.

@@ -48,6 +48,11 @@ struct EstimateOptions {
   double mfps_point_sigma_factor = 4;
   double mfps_posterior_beta = 12;
   double mfps_edge_sigma_factor = 1;
+  /// MFPS PCA blend (see mfps.hpp): candidates move towards their PCA normal where the
+  /// selection is likely wrong. NH-Net's descriptors set their own (DescriptorOptions).
+  bool mfps_pca_blend = true;
+  /// Diagnostics for fitting the blend: fill EstimateResult::mfps_blend_*.
+  bool mfps_record_blend = false;
   /// NH-Net model file (TorchScript from nhnet-export); empty = the shipped model
   /// (default_model_path() in nhnet_model.hpp).
   std::string model;
@@ -102,6 +107,12 @@ struct EstimateResult {
   int k_used = 0;
   /// MFPS patch sizes that were used (empty for PCA).
   std::vector<int> scales_used;
+  /// With mfps_record_blend: input rows of the candidates that have blend features, the
+  /// features (rows x kMfpsBlendFeatures, mfps.hpp) and those rows' normals before the blend
+  /// (rows x 3).
+  std::vector<int64_t> mfps_blend_rows;
+  Eigen::MatrixXd mfps_blend_features;
+  Normals mfps_unblended;
   /// NH-Net only: the device the model ran on ("cpu" / "cuda") and the descriptor
   /// neighbourhood size.
   std::string device_used;

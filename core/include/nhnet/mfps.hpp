@@ -11,7 +11,9 @@
 // (each step is the weighted-PCA fixed point of the Gaussian objective). Same E, fewer samples,
 // a maximiser that is not limited to 4-point planes: see the note on issue 2 for the numbers.
 // Selection is the paper's argmax by default; an optional two-face posterior (posterior_beta)
-// trades a little mean error for a lower RMS where two faces are about equally likely.
+// trades a little mean error for a lower RMS where two faces are about equally likely, and an
+// optional PCA blend (pca_blend) moves a candidate towards its PCA normal where the selection is
+// likely wrong (not the paper's; see the note on issue 2).
 #pragma once
 
 #include "nhnet/progress.hpp"
@@ -21,6 +23,15 @@
 #include <vector>
 
 namespace nhnet {
+
+/// Features of the PCA blend (MfpsOptions::pca_blend), per candidate with a rival:
+/// 0 intercept (1), 1 4P(1-P) of the final posterior, 2 winner-rival angle, 3 PCA-final angle,
+/// 4 distance to the winner-rival edge line / (5 bandwidths), capped at 1, 5 4P(1-P) of the
+/// score posterior, 6 |2 P_edge - 1|, 7 how far the PCA normal is off the winner-rival arc,
+/// 8 / 9 1 - mean |n_i . n_j| over the kBlendNeighbours nearest (MFPS / PCA normals),
+/// 10 log of the winner's score D of Eq. 4, 11 PCA-winner angle (angles in radians).
+constexpr int kMfpsBlendFeatures = 12;
+constexpr int kBlendNeighbours = 16;
 
 struct MfpsOptions {
   /// Patch sizes K (self included), ascending. Paper: {50, 100, 150}.
@@ -55,6 +66,14 @@ struct MfpsOptions {
   /// from the edge, s = this factor x sigma_i), i.e. the Gaussian noise model integrated over the
   /// half-plane; it multiplies the score prior (D2/D1)^beta.
   double edge_sigma_factor = 0;
+  /// PCA blend (not the paper's; false = off): each candidate with a rival is rotated towards
+  /// its PCA normal (`base_normals`) by a weight w = logistic(c . f), f the features above, c
+  /// fitted on the training split (tools/fit_mfps_blend.py). Within about one noise sigma of an
+  /// edge the face a point came from cannot be told, the large-k PCA plane (close to the
+  /// bisector) is then the lower-RMS answer; w learns where.
+  bool pca_blend = false;
+  /// Keep the blend features and the normals before the blend in the result (for fitting).
+  bool record_blend_features = false;
   /// Seed of the random samples; results do not depend on the thread count.
   uint64_t seed = 1;
 };
@@ -69,6 +88,11 @@ struct MfpsResult {
   int64_t fallback_patches = 0;
   /// Patches whose plane was computed.
   int64_t patches = 0;
+  /// With record_blend_features: the rows (of `points`) that have blend features, their
+  /// features (rows x kMfpsBlendFeatures) and every point's normal before the blend (N x 3).
+  std::vector<int64_t> blend_rows;
+  Eigen::MatrixXd blend_features;
+  Normals unblended_normals;
 };
 
 /// Runs MFPS on `points` (N x 3). `knn` (N x K, K >= max scale, self first) is the shared
