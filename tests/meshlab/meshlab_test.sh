@@ -3,7 +3,9 @@
 #   meshlab_test.sh PLUGIN.so NHNET_CLI SOURCE_DIR
 # meshlabserver only looks for plugins in <its own dir>/plugins (else the system dir), so a
 # private copy gets a plugins/ dir with the system io_base (PLY) and filter_create (a mesh to
-# test on) plus ours; XDG_CONFIG_HOME is a temp dir; xvfb-run gives it the X display it needs.
+# test on) plus ours; XDG_CONFIG_HOME is a temp dir; one Xvfb server (started here, stopped on
+# exit) gives it the X display it needs. Not xvfb-run per call: its own clean-up of its temp dir
+# fails now and then under load and then replaces meshlabserver's exit status with 5.
 set -euo pipefail
 PLUGIN=$(realpath "$1")
 CLI=$(realpath "$2")
@@ -11,7 +13,14 @@ SRC=$(realpath "$3")
 MLDIR=/usr/lib/x86_64-linux-gnu/meshlab
 
 T=$(mktemp -d)
-trap 'rm -rf "$T"' EXIT
+XVFB_PID=
+trap '[[ -n $XVFB_PID ]] && kill "$XVFB_PID" 2>/dev/null; rm -rf "$T"' EXIT
+# Xvfb picks a free display and writes its number to fd 3.
+Xvfb -displayfd 3 -nolisten tcp -screen 0 1280x1024x24 3>"$T/display" 2>"$T/xvfb.log" &
+XVFB_PID=$!
+for _ in $(seq 100); do [[ -s $T/display ]] && break; sleep 0.1; done
+[[ -s $T/display ]] || { echo "FAIL: Xvfb did not start: $(cat "$T/xvfb.log")"; exit 1; }
+export DISPLAY=":$(head -1 "$T/display")"
 mkdir -p "$T/ml/plugins" "$T/config" "$T/runtime"
 chmod 700 "$T/runtime"
 cp /usr/bin/meshlabserver "$T/ml/"
@@ -24,7 +33,7 @@ fails=0
 fail() { echo "FAIL: $*"; fails=$((fails + 1)); }
 pass() { echo "ok: $*"; }
 # meshlabserver ARGS... > $T/last.log; returns its exit status.
-mls() { xvfb-run -a "$T/ml/meshlabserver" "$@" >"$T/last.log" 2>&1; }
+mls() { "$T/ml/meshlabserver" "$@" >"$T/last.log" 2>&1; }
 
 # An .mlx script running "Estimate normals (NH-Net)". meshlabserver needs every parameter, in
 # the filter's order (it asserts otherwise), and enum_cardinality on enums.
