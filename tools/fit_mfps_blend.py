@@ -4,7 +4,8 @@
 Input: the files `calibrate_scales blend=DIR ...` writes (one per cloud with ground truth): per
 candidate with a rival its blend features, its MFPS normal before the blend, its PCA normal and
 the ground truth. The final normal is the MFPS normal rotated towards the PCA normal by
-w = logistic(c . f); c minimises the sum over clouds of each cloud's mean squared angle error
+w = logistic(c . t(f)), t(f) = the features and their pairwise products (a quadratic form in
+the features); c minimises the sum over clouds of each cloud's mean squared angle error
 (degrees^2), i.e. the mean of the per-cloud MSEs, found with L-BFGS (torch autograd).
 
     python3 tools/fit_mfps_blend.py DIR/*.blend.txt                  # fit, print c and RMS per cloud
@@ -21,6 +22,7 @@ import numpy as np
 import torch
 
 FEATURES = 12
+TERMS = FEATURES + (FEATURES - 1) * FEATURES // 2
 
 
 def load(path: Path):
@@ -32,8 +34,15 @@ def load(path: Path):
         data = np.zeros((0, 1 + FEATURES + 9))
     t = torch.from_numpy(data).double()
     return {"name": path.name.replace(".blend.txt", ""), "points": points, "rest_sq": rest_sq,
-            "f": t[:, 1:1 + FEATURES], "m": t[:, 1 + FEATURES:4 + FEATURES],
+            "f": terms(t[:, 1:1 + FEATURES]), "m": t[:, 1 + FEATURES:4 + FEATURES],
             "p": t[:, 4 + FEATURES:7 + FEATURES], "g": t[:, 7 + FEATURES:10 + FEATURES]}
+
+
+def terms(f):
+    """The blend's terms, in the order of core/src/mfps.cpp blend_weight(): the features (the
+    first is the intercept), then every product f_a f_b of the others with a <= b."""
+    products = [f[:, a] * f[:, b] for a in range(1, FEATURES) for b in range(a, FEATURES)]
+    return torch.cat([f, torch.stack(products, 1)], 1) if len(f) else f.new_zeros((0, TERMS))
 
 
 def unit(v):
@@ -83,7 +92,7 @@ def main():
     if args.coefficients:
         c = torch.tensor([float(x) for x in args.coefficients.split(",")])
     else:
-        c = torch.zeros(FEATURES)
+        c = torch.zeros(TERMS)
         c[0] = -2.0  # start close to "no blend"
         c.requires_grad_(True)
         opt = torch.optim.LBFGS([c], lr=1, max_iter=args.iterations, history_size=20,

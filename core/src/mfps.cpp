@@ -122,17 +122,32 @@ double edge_posterior(const Eigen::Vector3d& p, const Eigen::Vector3d& n1, const
   return 1.0 / (1.0 + std::exp(std::clamp(la - lb, -700.0, 700.0)));
 }
 
-/// Coefficients of the PCA blend (MfpsOptions::pca_blend), in the order of the features listed
-/// at kMfpsBlendFeatures (mfps.hpp):
-/// fitted by tools/fit_mfps_blend.py on the training split only (16 CAD models x noise 0, 0.1,
-/// 0.3, 0.6 %), minimising the squared angle error of every candidate.
-constexpr std::array<double, kMfpsBlendFeatures> kBlendCoefficients = {
-    -6.1937, 2.0507, -1.2236, -3.0473, -1.4346, -1.4823, 0.3924, 2.8464, 0.3065, -14.9236, -14.7471, 4.6259};
+/// Coefficients of the PCA blend (MfpsOptions::pca_blend): the weight is logistic in the
+/// features listed at kMfpsBlendFeatures (mfps.hpp; the first is the intercept) and in every
+/// product f_a f_b of the others (a <= b), in that order. Fitted by tools/fit_mfps_blend.py on
+/// the training split only (16 CAD models x noise 0, 0.1, 0.3, 0.6 %), minimising the mean over
+/// clouds of each cloud's mean squared angle error.
+constexpr int kBlendTerms = kMfpsBlendFeatures + (kMfpsBlendFeatures - 1) * kMfpsBlendFeatures / 2;
+constexpr std::array<double, kBlendTerms> kBlendCoefficients = {
+    -10.1513, 9.9937, 9.9467, 12.9313, 10.8916, 0.7740, -5.0653, 3.7326,
+    -17.1129, 4.5568, -6.6447, -10.1199, -2.9107, 7.3286, 2.5403, 3.6367,
+    1.1171, -3.1667, -2.1574, 4.8027, -3.2419, 21.8807, 2.1296, -5.0413,
+    -4.7616, -8.9267, -10.9376, -0.1804, -3.9886, 18.3819, -13.3190, 0.6775,
+    10.8244, 7.1389, 1.8630, -7.0517, -4.5196, -9.2979, 16.8540, -9.0520,
+    -4.4069, -12.1928, 5.6721, -1.7275, -6.2057, 0.5574, 17.8402, -13.5824,
+    9.7896, -7.1143, -7.1633, 2.8672, 3.8743, 4.4842, -8.2935, -25.4468,
+    4.7612, 3.6603, -1.3430, -2.9200, -1.9569, -7.7737, 7.4409, 0.7988,
+    9.1016, -9.8816, 2.2430, 9.8905, -34.1429, 20.6593, 10.9414, -12.3863,
+    24.0922, -3.1473, 7.4772, 1.7031, 2.7787, -1.5789};
 
-/// Weight of the PCA normal in the final normal of a candidate (logistic in the features).
+/// Weight of the PCA normal in the final normal of a candidate.
 double blend_weight(const std::array<double, kMfpsBlendFeatures>& f) {
   double z = 0;
-  for (int t = 0; t < kMfpsBlendFeatures; ++t) z += kBlendCoefficients[size_t(t)] * f[size_t(t)];
+  int term = 0;
+  for (int a = 0; a < kMfpsBlendFeatures; ++a) z += kBlendCoefficients[size_t(term++)] * f[size_t(a)];
+  for (int a = 1; a < kMfpsBlendFeatures; ++a)
+    for (int b = a; b < kMfpsBlendFeatures; ++b)
+      z += kBlendCoefficients[size_t(term++)] * f[size_t(a)] * f[size_t(b)];
   return 1.0 / (1.0 + std::exp(-std::clamp(z, -50.0, 50.0)));
 }
 
