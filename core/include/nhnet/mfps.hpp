@@ -67,8 +67,9 @@ struct MfpsOptions {
   /// half-plane; it multiplies the score prior (D2/D1)^beta.
   double edge_sigma_factor = 0;
   /// PCA blend (not the paper's; false = off): each candidate with a rival is rotated towards
-  /// its PCA normal (`base_normals`) by a weight w = logistic(c . f), f the features above, c
-  /// fitted on the training split (tools/fit_mfps_blend.py). Within about one noise sigma of an
+  /// its PCA normal (`base_normals`) by a weight w, logistic in a quadratic form of the features
+  /// above (each feature and every pairwise product; the 78 coefficients in mfps.cpp were fitted
+  /// on the training split with tools/fit_mfps_blend.py). Within about one noise sigma of an
   /// edge the face a point came from cannot be told, the large-k PCA plane (close to the
   /// bisector) is then the lower-RMS answer; w learns where.
   bool pca_blend = false;
