@@ -66,7 +66,8 @@ points : array_like, shape (N, 3)
     skipped: they get a NaN normal, are counted as failed and never influence their neighbours.
 method : {'mfps', 'pca'}
     'mfps' (default): PCA for smooth points and multi-scale fitting patch selection near sharp
-    features (paper Sec. 4). 'pca': plain PCA over the k nearest neighbours.
+    features (paper Sec. 4), candidates then blended towards their PCA normal where the
+    selection is likely wrong (README, step 4). 'pca': plain PCA over the k nearest neighbours.
 k : int
     PCA neighbourhood size (self included), 0 (default) = chosen from the noise level, else >= 3.
 scales : sequence of int, optional
