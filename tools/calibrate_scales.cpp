@@ -13,9 +13,9 @@
 #include "nhnet/scales.hpp"
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <initializer_list>
 #include <string>
 #include <vector>
 
@@ -77,23 +77,25 @@ int main(int argc, char** argv) {
       o.method = Method::Pca;
       o.k = r.k_used;
       const EstimateResult pca = estimate_normals(p, o);
-      Normals rest = r.normals;
-      for (size_t t = 0; t < r.mfps_blend_rows.size(); ++t)
-        rest.row(r.mfps_blend_rows[t]) = gt.row(r.mfps_blend_rows[t]);
-      const AngleStats others = angle_stats(rest, gt);
+      Eigen::VectorXd err = angle_errors_deg(r.normals, gt);
+      for (const int64_t i : r.mfps_blend_rows) err[i] = 0;  // summed in the fit instead
+      double rest_sq = 0;
+      for (Eigen::Index i = 0; i < err.size(); ++i)
+        if (std::isfinite(err[i])) rest_sq += err[i] * err[i];
       const std::string out = mode.substr(6) + "/" + name + ".blend.txt";
       FILE* f = std::fopen(out.c_str(), "w");
       if (!f) return 6;
-      std::fprintf(f, "# points %ld rest_sq_sum %.9g\n", long(p.rows()),
-                   others.rms * others.rms * double(p.rows()));
+      std::fprintf(f, "# points %ld rest_sq_sum %.9g\n", long(p.rows()), rest_sq);
+      auto put = [f](const Normals& m, Eigen::Index row) {
+        for (int d = 0; d < 3; ++d) std::fprintf(f, " %.9g", m(row, d));
+      };
       for (size_t t = 0; t < r.mfps_blend_rows.size(); ++t) {
         const int64_t i = r.mfps_blend_rows[t];
         std::fprintf(f, "%ld", long(i));
         for (int q = 0; q < kMfpsBlendFeatures; ++q) std::fprintf(f, " %.9g", r.mfps_blend_features(Eigen::Index(t), q));
-        for (const Normals* m : std::initializer_list<const Normals*>{&r.mfps_unblended, &pca.normals, &gt}) {
-          const Eigen::Index row = m == &r.mfps_unblended ? Eigen::Index(t) : Eigen::Index(i);
-          for (int d = 0; d < 3; ++d) std::fprintf(f, " %.9g", (*m)(row, d));
-        }
+        put(r.mfps_unblended, Eigen::Index(t));
+        put(pca.normals, i);
+        put(gt, i);
         std::fprintf(f, "\n");
       }
       std::fclose(f);

@@ -463,25 +463,27 @@ MfpsResult mfps_normals(const Points& points, const IndexMatrix& knn, const Eige
     res.chosen_scale[size_t(i)] = scales[size_t(slot % ns)];
   }
   if (want_features) {
-    // The neighbourhood features read the normals before any blending, so the result does not
-    // depend on the order in which points are blended.
-    const Normals before = res.normals;
+    // The neighbourhood features read the normals before any blending (all of them first, then
+    // the blend), so the result does not depend on the order in which points are blended.
     for (size_t t = 0; t < blended_rows.size(); ++t) {
       const Eigen::Index i = blended_rows[t];
-      features[t][8] = inconsistency(before, knn, i, kBlendNeighbours);
+      features[t][8] = inconsistency(res.normals, knn, i, kBlendNeighbours);
       features[t][9] = inconsistency(base_normals, knn, i, kBlendNeighbours);
-      if (options.pca_blend)
-        res.normals.row(i) = slerp_towards(before.row(i).transpose(),
-                                           base_normals.row(i).transpose(), blend_weight(features[t]))
-                                 .transpose();
     }
     if (options.record_blend_features) {
-      res.blend_rows = std::move(blended_rows);
+      res.unblended_normals = res.normals;
       res.blend_features.resize(Eigen::Index(features.size()), kMfpsBlendFeatures);
       for (size_t t = 0; t < features.size(); ++t)
         for (int q = 0; q < kMfpsBlendFeatures; ++q) res.blend_features(Eigen::Index(t), q) = features[t][size_t(q)];
-      res.unblended_normals = before;
     }
+    if (options.pca_blend)
+      for (size_t t = 0; t < blended_rows.size(); ++t) {
+        const Eigen::Index i = blended_rows[t];
+        res.normals.row(i) = slerp_towards(res.normals.row(i).transpose(),
+                                           base_normals.row(i).transpose(), blend_weight(features[t]))
+                                 .transpose();
+      }
+    if (options.record_blend_features) res.blend_rows = std::move(blended_rows);
   }
   if (run.progress) {
     progress.report(1.0);
