@@ -10,7 +10,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
+#include <fstream>
 #include <random>
+#include <string>
+#include <vector>
 
 namespace {
 
@@ -207,4 +211,49 @@ TEST(PclNormalEstimation, InvalidOptionsThrowAndNoInputGivesEmptyOutput) {
   ne.setInputCloud(cloud);
   ne.setKSearch(2);
   EXPECT_THROW(ne.compute(out), nhnet::InvalidOptions);
+}
+
+namespace {
+
+/// The golden cloud of tests/golden/golden.py: the first 4000 points of the bundled noisy sample.
+Cloud::Ptr golden_cloud() {
+  Cloud::Ptr c(new Cloud);
+  std::ifstream in(std::string(NHNET_SOURCE_DIR) + "/data/sample/fandisk_noise0.6.xyz");
+  float x, y, z;
+  while (c->size() < 4000 && in >> x >> y >> z) c->push_back(pcl::PointXYZ(x, y, z));
+  return c;
+}
+
+}  // namespace
+
+// Golden output (issue 26): the class's MFPS normals and curvature, flipped towards the default
+// viewpoint, against tests/golden/pcl_mfps.bin (N x 4 little-endian doubles). Tolerance 1e-6 as
+// in tests/python/test_golden.py: a changed summation order passes, a changed result does not.
+// NHNET_GOLDEN_WRITE=1 rewrites the file (only for an intended change of results).
+TEST(PclNormalEstimation, GoldenMfpsOutputUnchanged) {
+  const Cloud::Ptr cloud = golden_cloud();
+  ASSERT_EQ(cloud->size(), 4000u);
+  nhnet::pcl::NHNetNormalEstimation<pcl::PointXYZ, pcl::Normal> ne;
+  ne.setInputCloud(cloud);
+  NormalCloud out;
+  ne.compute(out);
+  std::vector<double> got;
+  for (const pcl::Normal& n : out.points)
+    got.insert(got.end(), {n.normal_x, n.normal_y, n.normal_z, n.curvature});
+  const std::string path = std::string(NHNET_SOURCE_DIR) + "/tests/golden/pcl_mfps.bin";
+  if (const char* w = std::getenv("NHNET_GOLDEN_WRITE"); w && std::string(w) == "1") {
+    std::ofstream(path, std::ios::binary)
+        .write(reinterpret_cast<const char*>(got.data()), std::streamsize(got.size() * sizeof(double)));
+  }
+  std::vector<double> want(got.size());
+  std::ifstream in(path, std::ios::binary);
+  ASSERT_TRUE(in.read(reinterpret_cast<char*>(want.data()), std::streamsize(want.size() * sizeof(double))))
+      << path;
+  for (size_t i = 0; i < got.size(); ++i) {
+    if (std::isnan(want[i])) {
+      EXPECT_TRUE(std::isnan(got[i])) << "value " << i;
+    } else {
+      ASSERT_NEAR(got[i], want[i], 1e-6) << "value " << i << " (point " << i / 4 << ")";
+    }
+  }
 }
