@@ -20,9 +20,9 @@
 #include "peers.hpp"
 
 #include "nhnet/errors.hpp"
-#include "nhnet/estimate.hpp"
-#include "nhnet/io.hpp"
-#include "nhnet/metrics.hpp"
+#include "nhnet/pipeline/estimate.hpp"
+#include "nhnet/io/io.hpp"
+#include "nhnet/eval/metrics.hpp"
 
 #include <chrono>
 #include <cmath>

@@ -11,7 +11,7 @@
 //   knn_compare [--n 1000000] [--k 150,50] [--threads 2] [--methods a,b,...] [--octree-res 0.02]
 //               [--repeat 1]
 //   knn_compare --list
-#include "nhnet/neighbors.hpp"
+#include "nhnet/neighbors/neighbors.hpp"
 
 #include <nanoflann.hpp>
 

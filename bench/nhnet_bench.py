@@ -5,7 +5,7 @@ Protocol: notes/benchmark.md (paper Sec. 6.1). Data: nhnet-datagen (training/nhn
 generated here when missing. For every cloud and every method one child process runs the
 estimator (``nhnet-bench-worker`` for nhnet / PCL / CGAL, ``open3d_worker.py`` for Open3D), so the
 peak RSS read with ``os.wait4`` is that method's own. Accuracy is scored with nhnet's metrics
-(core/include/nhnet/metrics.hpp: unoriented angle error; mean, RMS, PGP5, PGP10).
+(core/include/nhnet/eval/metrics.hpp: unoriented angle error; mean, RMS, PGP5, PGP10).
 
     /usr/bin/python3 bench/nhnet_bench.py [--quick] [--points N] [--out DIR] [--data DIR]
         [--categories A,B] [--models M1,M2] [--levels 0.1,0.2] [--methods a,b] [--threads T]

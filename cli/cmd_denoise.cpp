@@ -5,12 +5,12 @@
 // normals used when --keep-normals is given. Same io and exit-code rules as `estimate`.
 #include "common.hpp"
 
-#include "nhnet/cloud.hpp"
-#include "nhnet/denoise.hpp"
+#include "nhnet/io/cloud.hpp"
+#include "nhnet/denoise/denoise.hpp"
 #include "nhnet/errors.hpp"
-#include "nhnet/estimate.hpp"
-#include "nhnet/io.hpp"
-#include "nhnet/nhnet_model.hpp"
+#include "nhnet/pipeline/estimate.hpp"
+#include "nhnet/io/io.hpp"
+#include "nhnet/learned/nhnet_model.hpp"
 
 #include <CLI/CLI.hpp>
 

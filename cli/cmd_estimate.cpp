@@ -5,13 +5,13 @@
 // is processed in turn; one failure does not stop the rest (unless --fail-fast).
 #include "common.hpp"
 
-#include "nhnet/cloud.hpp"
+#include "nhnet/io/cloud.hpp"
 #include "nhnet/errors.hpp"
-#include "nhnet/estimate.hpp"
-#include "nhnet/io.hpp"
-#include "nhnet/nhnet_model.hpp"
-#include "nhnet/orient.hpp"
-#include "nhnet/stream.hpp"
+#include "nhnet/pipeline/estimate.hpp"
+#include "nhnet/io/io.hpp"
+#include "nhnet/learned/nhnet_model.hpp"
+#include "nhnet/orient/orient.hpp"
+#include "nhnet/pipeline/stream.hpp"
 #include "nhnet/version.hpp"
 #include "sha256.hpp"
 

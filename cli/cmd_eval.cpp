@@ -2,10 +2,10 @@
 // same points in the same order (benchmark protocol: mean, RMS, PGP5, PGP10; see metrics.hpp).
 #include "common.hpp"
 
-#include "nhnet/cloud.hpp"
+#include "nhnet/io/cloud.hpp"
 #include "nhnet/errors.hpp"
-#include "nhnet/io.hpp"
-#include "nhnet/metrics.hpp"
+#include "nhnet/io/io.hpp"
+#include "nhnet/eval/metrics.hpp"
 
 #include <CLI/CLI.hpp>
 

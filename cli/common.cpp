@@ -2,8 +2,8 @@
 #include "common.hpp"
 
 #include "nhnet/errors.hpp"
-#include "nhnet/io.hpp"
-#include "nhnet/nhnet_model.hpp"
+#include "nhnet/io/io.hpp"
+#include "nhnet/learned/nhnet_model.hpp"
 
 #include <CLI/CLI.hpp>
 

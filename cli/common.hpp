@@ -2,9 +2,9 @@
 // progress bar), SIGINT/SIGTERM -> cancel flag, and a tiny JSON writer. No algorithm lives here.
 #pragma once
 
-#include "nhnet/cloud.hpp"
+#include "nhnet/io/cloud.hpp"
 #include "nhnet/errors.hpp"
-#include "nhnet/orient.hpp"
+#include "nhnet/orient/orient.hpp"
 #include "nhnet/progress.hpp"
 
 #include <chrono>

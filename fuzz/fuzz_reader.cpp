@@ -6,7 +6,7 @@
 //     -timeout turn huge allocations and hangs into failures);
 //   - a cloud that was read writes (binary and ascii where the format has both) and reads back
 //     with the same point count and bit-identical coordinates (NaN equal to NaN).
-#include "io_detail.hpp"
+#include "io/detail.hpp"
 
 #include <cmath>
 #include <cstdint>

@@ -5,12 +5,12 @@
 // `blend=DIR` writes the MFPS PCA blend's features of every cloud to DIR (input of
 // tools/fit_mfps_blend.py).
 // Usage: see tools/README.md.
-#include "nhnet/estimate.hpp"
-#include "nhnet/mfps.hpp"
-#include "nhnet/metrics.hpp"
-#include "nhnet/neighbors.hpp"
-#include "nhnet/pca.hpp"
-#include "nhnet/scales.hpp"
+#include "nhnet/pipeline/estimate.hpp"
+#include "nhnet/geometry/mfps.hpp"
+#include "nhnet/eval/metrics.hpp"
+#include "nhnet/neighbors/neighbors.hpp"
+#include "nhnet/geometry/pca.hpp"
+#include "nhnet/geometry/scales.hpp"
 
 #include <chrono>
 #include <cmath>

@@ -12,11 +12,11 @@
 // scales; gt = the ground-truth normals, an upper bound). --cache DIR keeps the estimated normals
 // in DIR/NAME.METHOD.xyzn and reuses them (for repeated runs while tuning the denoiser or the
 // orientation). See tools/README.md.
-#include "nhnet/denoise.hpp"
-#include "nhnet/estimate.hpp"
-#include "nhnet/io.hpp"
-#include "nhnet/metrics.hpp"
-#include "nhnet/orient.hpp"
+#include "nhnet/denoise/denoise.hpp"
+#include "nhnet/pipeline/estimate.hpp"
+#include "nhnet/io/io.hpp"
+#include "nhnet/eval/metrics.hpp"
+#include "nhnet/orient/orient.hpp"
 
 #include <chrono>
 #include <cmath>

@@ -309,7 +309,7 @@ Outcome denoise_cloud(ccPointCloud& cloud, const DenoiseSettings& settings,
   (void)dialog;
   throw nhnet::InvalidOptions(
       "normal-guided denoise is not in this build of nhnet: the core's denoise stage "
-      "(nhnet/denoise.hpp) was not found when the plugin was built");
+      "(nhnet/denoise/denoise.hpp) was not found when the plugin was built");
 #endif
 }
 

@@ -5,8 +5,8 @@
 #pragma once
 
 #include "nhnet/errors.hpp"
-#include "nhnet/estimate.hpp"
-#include "nhnet/orient.hpp"
+#include "nhnet/pipeline/estimate.hpp"
+#include "nhnet/orient/orient.hpp"
 #include "nhnet/progress.hpp"
 
 #include <QString>
@@ -18,7 +18,7 @@
 // NHNET_CC_HAS_DENOISE is set by CMakeLists.txt from whether the core has its denoise stage (a
 // compile definition, so the build notices when the stage arrives).
 #if NHNET_CC_HAS_DENOISE
-#include "nhnet/denoise.hpp"
+#include "nhnet/denoise/denoise.hpp"
 #endif
 
 class ccPointCloud;

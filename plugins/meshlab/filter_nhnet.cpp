@@ -3,10 +3,10 @@
 // only written to after the core call succeeded, so a failed run leaves it untouched.
 #include "filter_nhnet.h"
 
-#include "nhnet/denoise.hpp"
+#include "nhnet/denoise/denoise.hpp"
 #include "nhnet/errors.hpp"
-#include "nhnet/estimate.hpp"
-#include "nhnet/orient.hpp"
+#include "nhnet/pipeline/estimate.hpp"
+#include "nhnet/orient/orient.hpp"
 
 #include <new>
 #include <string>

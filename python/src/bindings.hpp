@@ -3,7 +3,7 @@
 // adapters over the core: copy arrays in, call the core with the GIL released, copy results out.
 #pragma once
 
-#include "nhnet/orient.hpp"
+#include "nhnet/orient/orient.hpp"
 #include "nhnet/progress.hpp"
 #include "nhnet/types.hpp"
 

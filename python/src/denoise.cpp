@@ -1,7 +1,7 @@
 // Bindings of the normal-guided denoiser (denoise.hpp, paper Sec. 7 Eq. 9): nhnet.denoise().
 #include "bindings.hpp"
 
-#include "nhnet/denoise.hpp"
+#include "nhnet/denoise/denoise.hpp"
 #include "nhnet/errors.hpp"
 
 #include <pybind11/stl.h>

@@ -2,7 +2,7 @@
 // training package uses, so training sees exactly the descriptors that inference computes.
 #include "bindings.hpp"
 
-#include "nhnet/descriptors.hpp"
+#include "nhnet/learned/descriptors.hpp"
 
 #include <pybind11/stl.h>
 

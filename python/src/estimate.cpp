@@ -3,7 +3,7 @@
 #include "bindings.hpp"
 
 #include "nhnet/errors.hpp"
-#include "nhnet/estimate.hpp"
+#include "nhnet/pipeline/estimate.hpp"
 
 #include <pybind11/stl.h>
 

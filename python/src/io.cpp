@@ -1,9 +1,9 @@
 // Bindings of the point cloud io (io.hpp): nhnet.read() -> nhnet.Cloud, nhnet.write().
 #include "bindings.hpp"
 
-#include "nhnet/cloud.hpp"
+#include "nhnet/io/cloud.hpp"
 #include "nhnet/errors.hpp"
-#include "nhnet/io.hpp"
+#include "nhnet/io/io.hpp"
 
 #include <pybind11/stl.h>
 

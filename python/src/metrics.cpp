@@ -2,7 +2,7 @@
 #include "bindings.hpp"
 
 #include "nhnet/errors.hpp"
-#include "nhnet/metrics.hpp"
+#include "nhnet/eval/metrics.hpp"
 
 namespace nhnet::python {
 

@@ -3,7 +3,7 @@
 #include "bindings.hpp"
 
 #include "nhnet/errors.hpp"
-#include "nhnet/orient.hpp"
+#include "nhnet/orient/orient.hpp"
 
 #include <pybind11/stl.h>
 

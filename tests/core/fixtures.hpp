@@ -1,7 +1,7 @@
 // Analytic test fixtures with known normals: plane, sphere, cube (N x 3 points and normals).
 #pragma once
 
-#include "nhnet/neighbors.hpp"
+#include "nhnet/neighbors/neighbors.hpp"
 #include "nhnet/types.hpp"
 
 #include <cmath>

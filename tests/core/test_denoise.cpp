@@ -4,11 +4,11 @@
 // gets closer to its clean surface with MFPS normals.
 #include "fixtures.hpp"
 
-#include "nhnet/denoise.hpp"
+#include "nhnet/denoise/denoise.hpp"
 #include "nhnet/errors.hpp"
-#include "nhnet/estimate.hpp"
-#include "nhnet/io.hpp"
-#include "nhnet/metrics.hpp"
+#include "nhnet/pipeline/estimate.hpp"
+#include "nhnet/io/io.hpp"
+#include "nhnet/eval/metrics.hpp"
 
 #include <gtest/gtest.h>
 

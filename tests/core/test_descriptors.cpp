@@ -3,12 +3,12 @@
 // scaling of the cloud.
 #include "fixtures.hpp"
 
-#include "nhnet/bilateral_filter.hpp"
-#include "nhnet/canonical_frame.hpp"
-#include "nhnet/descriptors.hpp"
-#include "nhnet/height_map.hpp"
-#include "nhnet/metrics.hpp"
-#include "nhnet/pca.hpp"
+#include "nhnet/learned/bilateral_filter.hpp"
+#include "nhnet/learned/canonical_frame.hpp"
+#include "nhnet/learned/descriptors.hpp"
+#include "nhnet/learned/height_map.hpp"
+#include "nhnet/eval/metrics.hpp"
+#include "nhnet/geometry/pca.hpp"
 
 #include <gtest/gtest.h>
 

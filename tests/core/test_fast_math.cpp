@@ -1,6 +1,6 @@
 // fast_math.hpp: the batched exp of MFPS's Gaussian kernels (paper Eq. 1) against std::exp, and
 // the smallest eigenvector of its 4-point planes (Eq. 2's samples) against Eigen's solver.
-#include "fast_math.hpp"
+#include "util/fast_math.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,5 +1,5 @@
 // Candidate detection (surface-variation histogram threshold) and the 1-D TV solver.
-#include "nhnet/feature_detection.hpp"
+#include "nhnet/geometry/feature_detection.hpp"
 
 #include <gtest/gtest.h>
 

@@ -3,7 +3,7 @@
 // tangent to the surface gets no vote, an open surface has no watertight grid and no votes.
 #include "fixtures.hpp"
 
-#include "inside_outside.hpp"
+#include "orient/inside_outside.hpp"
 
 #include <gtest/gtest.h>
 

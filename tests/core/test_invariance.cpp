@@ -7,7 +7,7 @@
 #include "fixtures.hpp"
 
 #include "nhnet/errors.hpp"
-#include "nhnet/estimate.hpp"
+#include "nhnet/pipeline/estimate.hpp"
 
 #include <gtest/gtest.h>
 

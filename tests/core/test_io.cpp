@@ -4,7 +4,7 @@
 #include "fixtures.hpp"
 
 #include "nhnet/errors.hpp"
-#include "nhnet/io.hpp"
+#include "nhnet/io/io.hpp"
 
 #include <gtest/gtest.h>
 #include <functional>

@@ -1,6 +1,6 @@
 // Angle metrics on hand-computed cases.
 #include "nhnet/errors.hpp"
-#include "nhnet/metrics.hpp"
+#include "nhnet/eval/metrics.hpp"
 
 #include <gtest/gtest.h>
 

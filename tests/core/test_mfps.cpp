@@ -3,12 +3,12 @@
 // lies on one face.
 #include "fixtures.hpp"
 
-#include "nhnet/bandwidth.hpp"
-#include "nhnet/estimate.hpp"
-#include "nhnet/feature_detection.hpp"
-#include "nhnet/metrics.hpp"
-#include "nhnet/mfps.hpp"
-#include "nhnet/pca.hpp"
+#include "nhnet/geometry/bandwidth.hpp"
+#include "nhnet/pipeline/estimate.hpp"
+#include "nhnet/geometry/feature_detection.hpp"
+#include "nhnet/eval/metrics.hpp"
+#include "nhnet/geometry/mfps.hpp"
+#include "nhnet/geometry/pca.hpp"
 
 #include <gtest/gtest.h>
 

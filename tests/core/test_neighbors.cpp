@@ -1,7 +1,7 @@
 // kd-tree: kNN matches brute force, self first even with duplicates, far-from-origin clouds.
 #include "fixtures.hpp"
 
-#include "nhnet/neighbors.hpp"
+#include "nhnet/neighbors/neighbors.hpp"
 
 #include <gtest/gtest.h>
 

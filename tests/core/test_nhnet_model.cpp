@@ -2,10 +2,10 @@
 // training sees (nhnet.descriptors) equal the ones inference computes (describe), and the C++
 // model reproduces the Python model's outputs on them (golden file written by
 // tests/data/make_nhnet_golden.py). Also: metadata mismatch and unavailable CUDA are refused.
-#include "nhnet/descriptors.hpp"
+#include "nhnet/learned/descriptors.hpp"
 #include "nhnet/errors.hpp"
-#include "nhnet/estimate.hpp"
-#include "nhnet/nhnet_model.hpp"
+#include "nhnet/pipeline/estimate.hpp"
+#include "nhnet/learned/nhnet_model.hpp"
 
 #include <gtest/gtest.h>
 

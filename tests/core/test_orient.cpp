@@ -5,9 +5,9 @@
 #include "fixtures.hpp"
 
 #include "nhnet/errors.hpp"
-#include "nhnet/estimate.hpp"
-#include "nhnet/io.hpp"
-#include "nhnet/orient.hpp"
+#include "nhnet/pipeline/estimate.hpp"
+#include "nhnet/io/io.hpp"
+#include "nhnet/orient/orient.hpp"
 
 #include <gtest/gtest.h>
 

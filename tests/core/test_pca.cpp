@@ -1,8 +1,8 @@
 // PCA normals on analytic fixtures: a plane and a sphere (noise-free error < 1 degree).
 #include "fixtures.hpp"
 
-#include "nhnet/metrics.hpp"
-#include "nhnet/pca.hpp"
+#include "nhnet/eval/metrics.hpp"
+#include "nhnet/geometry/pca.hpp"
 
 #include <gtest/gtest.h>
 

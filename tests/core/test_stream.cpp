@@ -5,10 +5,10 @@
 #include "fixtures.hpp"
 
 #include "nhnet/errors.hpp"
-#include "nhnet/estimate.hpp"
-#include "nhnet/io.hpp"
-#include "nhnet/metrics.hpp"
-#include "nhnet/stream.hpp"
+#include "nhnet/pipeline/estimate.hpp"
+#include "nhnet/io/io.hpp"
+#include "nhnet/eval/metrics.hpp"
+#include "nhnet/pipeline/stream.hpp"
 
 #include <gtest/gtest.h>
 #include <unistd.h>

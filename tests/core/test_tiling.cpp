@@ -4,9 +4,9 @@
 #include "fixtures.hpp"
 
 #include "nhnet/errors.hpp"
-#include "nhnet/estimate.hpp"
-#include "nhnet/metrics.hpp"
-#include "nhnet/nhnet_model.hpp"
+#include "nhnet/pipeline/estimate.hpp"
+#include "nhnet/eval/metrics.hpp"
+#include "nhnet/learned/nhnet_model.hpp"
 
 #include <gtest/gtest.h>
 

@@ -18,7 +18,7 @@ fail() { echo "package test: $*" >&2; exit 1; }
 
 echo "== cmake --install"
 cmake --install "$build" --prefix "$prefix" > "$tmp/install.log"
-for f in bin/nhnet-cli lib/libnhnet.a include/nhnet/estimate.hpp include/nhnet/version.hpp \
+for f in bin/nhnet-cli lib/libnhnet.a include/nhnet/pipeline/estimate.hpp include/nhnet/version.hpp \
          include/nhnet/pcl/normal_estimation.hpp lib/cmake/nhnet/nhnetConfig.cmake \
          lib/cmake/nhnet/nhnetConfigVersion.cmake lib/cmake/nhnet/nhnetTargets.cmake; do
   [[ -e $prefix/$f ]] || fail "not installed: $f"

@@ -6,7 +6,7 @@ import json
 from dataclasses import dataclass, field
 from typing import List
 
-# Must match the core (core/include/nhnet/descriptors.hpp); the C++ loader checks these.
+# Must match the core (core/include/nhnet/learned/descriptors.hpp); the C++ loader checks these.
 DESCRIPTOR_VERSION = 1
 HEIGHT_NORMALISATION = "cell"
 SIGMA_S = [1.0, 2.0]

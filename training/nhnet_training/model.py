@@ -2,7 +2,7 @@
 normal, then a gathering MLP; output L2-normalised, in the canonical frame.
 
 Input: the core's descriptor, (B, D) float32 with D = 3 F + F m^2: F rotated normals then F
-m x m height maps (core/include/nhnet/descriptors.hpp). The 9 branches have separate weights,
+m x m height maps (core/include/nhnet/learned/descriptors.hpp). The 9 branches have separate weights,
 run as grouped convolutions (one call for all branches)."""
 from __future__ import annotations
 

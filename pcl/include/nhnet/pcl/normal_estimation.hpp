@@ -29,7 +29,7 @@
 #pragma once
 
 #include "nhnet/errors.hpp"
-#include "nhnet/estimate.hpp"
+#include "nhnet/pipeline/estimate.hpp"
 
 #include <pcl/pcl_base.h>
 #include <pcl/point_cloud.h>

@@ -1,0 +1,59 @@
+// NH-Net inference (paper Sec. 5.2): a trained TorchScript model (training/, models/) applied to
+// the descriptors of descriptors.hpp. libtorch stays inside core/src/torch/nhnet_model.cpp
+// (PImpl); a core built without libtorch reports that through nhnet_available() and throws
+// InvalidOptions from the calls below.
+#pragma once
+
+#include "nhnet/learned/descriptors.hpp"
+#include "nhnet/pipeline/estimate.hpp"
+#include "nhnet/progress.hpp"
+
+#include <memory>
+#include <string>
+
+namespace nhnet {
+
+/// True when this build links libtorch (the nhnet method is usable).
+bool nhnet_available();
+
+/// The shipped model's path: $NHNET_MODEL if set, else the installed copy
+/// (<prefix>/share/nhnet/models/nhnet.pt) if it exists, else the source tree's models/nhnet.pt.
+std::string default_model_path();
+
+/// A loaded model. Loading checks the metadata the exporter wrote (descriptor version, size,
+/// sigmas, patch size, neighbourhood factor, height normalisation) against this core's
+/// descriptor and refuses a mismatch (InvalidOptions saying which field differs).
+class NhNetModel {
+ public:
+  /// `device`: "auto" (CUDA when the linked libtorch has it and a GPU is visible, else CPU),
+  /// "cpu" or "cuda" (InputError if unavailable). `threads`: intra-op threads, 0 = all cores.
+  NhNetModel(const std::string& path, const std::string& device = "auto", int threads = 0);
+  ~NhNetModel();
+  NhNetModel(NhNetModel&&) noexcept;
+  NhNetModel& operator=(NhNetModel&&) noexcept;
+
+  /// "cpu" or "cuda": the device in use.
+  const std::string& device() const;
+  /// The metadata JSON stored in the model.
+  const std::string& metadata() const;
+
+  /// Unit normals in the canonical frame for every row of `features` (N x D), `batch` rows at a
+  /// time. Rows with non-finite features give NaN.
+  Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor> infer(const DescriptorMatrix& features,
+                                                                  int batch = 4096,
+                                                                  const RunContext& run = {}) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// options.loaded_model, or else the model options.model (empty = default_model_path()) loaded
+/// for options.device and options.run.threads.
+std::shared_ptr<const NhNetModel> model_for(const EstimateOptions& options);
+
+/// The whole NH-Net pipeline: MFPS, descriptors, the model (options.model, empty = the default
+/// model), world normals = R^T * output. Used by estimate_normals for Method::NhNet.
+EstimateResult estimate_nhnet(const Points& points, const EstimateOptions& options);
+
+}  // namespace nhnet

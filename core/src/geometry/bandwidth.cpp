@@ -1,0 +1,72 @@
+// Residual bandwidth (sigma_j of paper Eq. 1-4), following the authors' rule
+// (notes/nhnet-reference.md Sec. 2) in gather form.
+#include "nhnet/geometry/bandwidth.hpp"
+
+#include "nhnet/errors.hpp"
+#include "nhnet/geometry/pca.hpp"
+#include "util/parallel.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace nhnet {
+
+Eigen::VectorXd residual_bandwidth(const Points& points, const IndexMatrix& knn, double spacing,
+                                   const BandwidthOptions& options, const RunContext& run) {
+  const Eigen::Index n = points.rows();
+  if (knn.rows() != n) throw InvalidOptions("residual_bandwidth: knn must have one row per point");
+  const int kp = int(std::min<Eigen::Index>(std::max(3, options.k_patch), knn.cols()));
+  const int ka = int(std::min<Eigen::Index>(std::max(1, options.k_average), knn.cols()));
+
+  // Pass 1: PCA plane (centroid, normal) and summed absolute residual E_i of every kp-NN patch.
+  Points centroid(n, 3), normal(n, 3);
+  Eigen::VectorXd esum(n);
+  detail::Progress progress(run.progress);
+  if (run.progress) progress.stage("bandwidth", 0, 0.4);
+  detail::parallel_for(n, run.threads, run.progress ? &progress : nullptr, [&](int64_t i) {
+    Eigen::Vector3d c;
+    Eigen::Vector3d nrm = fit_plane(points, &knn(i, 0), kp, &c);
+    if (!nrm.allFinite()) nrm = Eigen::Vector3d::UnitZ();  // degenerate: residuals along z
+    double e = 1e-9;
+    for (int j = 0; j < kp; ++j) e += std::abs((points.row(knn(i, j)).transpose() - c).dot(nrm));
+    centroid.row(i) = c.transpose();
+    normal.row(i) = nrm.transpose();
+    esum[i] = e;
+  });
+
+  // Pass 2: every point j takes its residual from the best patch among those centred at its
+  // own kp nearest neighbours.
+  Eigen::VectorXd err(n);
+  if (run.progress) progress.stage("bandwidth", 0.4, 0.8);
+  detail::parallel_for(n, run.threads, run.progress ? &progress : nullptr, [&](int64_t j) {
+    const Eigen::Vector3d pj = points.row(j).transpose();
+    double best = std::numeric_limits<double>::infinity(), res = 0;
+    for (int t = 0; t < kp; ++t) {
+      const int32_t i = knn(j, t);
+      const Eigen::Vector3d ni = normal.row(i).transpose();
+      const double mu = esum[i] / kp;
+      const double o = std::abs((pj - points.row(i).transpose()).dot(ni));
+      const double q = o / (2 * mu);
+      const double score = esum[i] * std::exp(std::min(q * q, 700.0));
+      if (score < best) {
+        best = score;
+        res = std::abs((pj - centroid.row(i).transpose()).dot(ni));
+      }
+    }
+    err[j] = res;
+  });
+
+  // Pass 3: average over the ka nearest neighbours.
+  Eigen::VectorXd bw(n);
+  const double floor_value = std::max(options.min_fraction_of_spacing * spacing, 1e-300);
+  if (run.progress) progress.stage("bandwidth", 0.8, 1.0);
+  detail::parallel_for(n, run.threads, run.progress ? &progress : nullptr, [&](int64_t i) {
+    double s = 0;
+    for (int t = 0; t < ka; ++t) s += err[knn(i, t)];
+    bw[i] = std::max(s / ka, floor_value);
+  });
+  return bw;
+}
+
+}  // namespace nhnet

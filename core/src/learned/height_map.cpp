@@ -1,0 +1,90 @@
+// Height-map patches (paper Eq. 6); see height_map.hpp.
+#include "nhnet/learned/height_map.hpp"
+
+#include "nhnet/errors.hpp"
+#include "util/parallel.hpp"
+
+#include <Eigen/Geometry>
+
+#include <cmath>
+#include <limits>
+#include <string>
+#include <vector>
+
+namespace nhnet {
+
+HeightMaps height_maps(const Points& points, const IndexMatrix& knn, int k,
+                       const CanonicalFrames& frames, const HeightMapOptions& options,
+                       const RunContext& run, Eigen::Index first) {
+  const Eigen::Index n = knn.rows();
+  const int m = options.size;
+  if (m < 1 || m % 2 == 0) throw InvalidOptions("height_maps: size must be odd and positive");
+  if (!(options.ball > 0)) throw InvalidOptions("height_maps: ball must be > 0");
+  if (first < 0 || first + n > points.rows() || frames.rotations.rows() != n ||
+      frames.rotated.rows() != n)
+    throw InvalidOptions("height_maps: points, neighbour table and frames differ in size");
+  if (k < 2 || k > knn.cols())
+    throw InvalidOptions("height_maps: k must be in [2, " + std::to_string(knn.cols()) + "]");
+  const int f = int(frames.rotated.cols() / 3);
+  const int half = m / 2, mm = m * m;
+  HeightMaps out(n, f * mm);
+  detail::Progress progress(run.progress);
+  if (run.progress) progress.stage("height maps", 0, 1);
+  detail::parallel_for(n, run.threads, run.progress ? &progress : nullptr, [&](int64_t i) {
+    if (!frames.rotations.row(i).allFinite()) {
+      out.row(i).setConstant(std::numeric_limits<float>::quiet_NaN());
+      return;
+    }
+    Eigen::Matrix3d r;
+    for (int c = 0; c < 9; ++c) r(c / 3, c % 3) = frames.rotations(i, c);
+    const Eigen::Vector3d pi = points.row(first + i).transpose();
+    const Eigen::Vector3d e1 = r.row(0).transpose(), e2 = r.row(1).transpose();
+    std::vector<Eigen::Vector3d> d(static_cast<size_t>(k));
+    double rad2 = 0;
+    for (int c = 0; c < k; ++c) {
+      d[size_t(c)] = points.row(knn(i, c)).transpose() - pi;
+      rad2 = std::max(rad2, d[size_t(c)].squaredNorm());
+    }
+    const double h = std::sqrt(rad2) / (half + options.ball);
+    if (!(h > 0)) {
+      out.row(i).setZero();
+      return;
+    }
+    const double inv_h = 1.0 / h, ball2 = options.ball * options.ball;
+    std::vector<double> wsum(static_cast<size_t>(mm)), zsum(static_cast<size_t>(mm));
+    for (int a = 0; a < f; ++a) {
+      const Eigen::Vector3d nf = r.transpose() * frames.rotated.block<1, 3>(i, 3 * a).transpose();
+      Eigen::Vector3d x = e1 - e1.dot(nf) * nf;
+      if (x.norm() < 1e-6) x = e2 - e2.dot(nf) * nf;
+      x.normalize();
+      Eigen::Vector3d y = e2 - e2.dot(nf) * nf - e2.dot(x) * x;
+      y = y.norm() > 1e-6 ? Eigen::Vector3d(y.normalized()) : Eigen::Vector3d(nf.cross(x));
+      std::fill(wsum.begin(), wsum.end(), 0.0);
+      std::fill(zsum.begin(), zsum.end(), 0.0);
+      for (int c = 0; c < k; ++c) {
+        const Eigen::Vector3d& v = d[size_t(c)];
+        const double z = v.dot(nf) * inv_h;  // height in cells
+        const double u = v.dot(x) * inv_h + half, w = v.dot(y) * inv_h + half;
+        const double z2 = z * z;
+        if (z2 > ball2) continue;
+        const int r0 = std::max(0, int(std::ceil(u - options.ball)));
+        const int r1 = std::min(m - 1, int(std::floor(u + options.ball)));
+        const int c0 = std::max(0, int(std::ceil(w - options.ball)));
+        const int c1 = std::min(m - 1, int(std::floor(w + options.ball)));
+        for (int rr = r0; rr <= r1; ++rr)
+          for (int cc = c0; cc <= c1; ++cc) {
+            const double dist2 = (u - rr) * (u - rr) + (w - cc) * (w - cc) + z2;
+            if (dist2 > ball2) continue;
+            const double wt = std::exp(-0.5 * dist2);
+            wsum[size_t(rr * m + cc)] += wt;
+            zsum[size_t(rr * m + cc)] += wt * z;
+          }
+      }
+      for (int b = 0; b < mm; ++b)
+        out(i, a * mm + b) = wsum[size_t(b)] > 0 ? float(zsum[size_t(b)] / wsum[size_t(b)]) : 0.0f;
+    }
+  });
+  return out;
+}
+
+}  // namespace nhnet

@@ -1,0 +1,163 @@
+// Neighbour search: one nanoflann kd-tree (float, re-centred coordinates) per cloud.
+// Chosen by measurement against PCL's FLANN tree and CGAL's kd-tree (see the note on issue 2).
+// After the build the coordinates are stored in the tree's leaf order (the tree's index array
+// becomes the identity), so a leaf's points are contiguous in memory and knn_all visits queries
+// in that order: the same tree, the same visiting order, the same results (ties included), 20-30 %
+// less neighbour-search time at 1M points (note on issue 10). Indices map back to input order.
+#include "nhnet/neighbors/neighbors.hpp"
+
+#include "nhnet/errors.hpp"
+#include "util/parallel.hpp"
+
+#include <nanoflann.hpp>
+
+#include <algorithm>
+#include <cmath>
+
+namespace nhnet {
+
+namespace {
+struct FloatCloud {
+  std::vector<float> xyz;  // 3N, re-centred
+  size_t kdtree_get_point_count() const { return xyz.size() / 3; }
+  float kdtree_get_pt(size_t i, size_t d) const { return xyz[3 * i + d]; }
+  template <class BBOX>
+  bool kdtree_get_bbox(BBOX&) const { return false; }
+};
+using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, FloatCloud>,
+                                                 FloatCloud, 3, uint32_t>;
+}  // namespace
+
+struct Neighbors::Impl {
+  FloatCloud cloud;                // in leaf order
+  std::vector<uint32_t> original;  // leaf-order position -> input index
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  std::unique_ptr<Tree> tree;
+};
+
+Neighbors::Neighbors(const Points& points) : impl_(std::make_unique<Impl>()) {
+  const Eigen::Index n = points.rows();
+  if (n == 0) throw InvalidOptions("Neighbors: empty point set");
+  if (!points.allFinite()) throw InvalidOptions("Neighbors: points must be finite");
+  impl_->centre = points.colwise().mean().transpose();
+  impl_->cloud.xyz.resize(3 * size_t(n));
+  for (Eigen::Index i = 0; i < n; ++i)
+    for (int d = 0; d < 3; ++d)
+      impl_->cloud.xyz[3 * i + d] = static_cast<float>(points(i, d) - impl_->centre[d]);
+  impl_->tree = std::make_unique<Tree>(3, impl_->cloud, nanoflann::KDTreeSingleIndexAdaptorParams(10));
+  impl_->tree->buildIndex();
+  // Leaf order: permute the coordinates by the tree's index array and make that array the
+  // identity. The nodes (split planes, bounding boxes, leaf ranges) are untouched.
+  auto& vind = impl_->tree->vAcc;
+  impl_->original.assign(vind.begin(), vind.end());
+  std::vector<float> sorted(3 * size_t(n));
+  for (size_t p = 0; p < size_t(n); ++p) {
+    for (int d = 0; d < 3; ++d) sorted[3 * p + d] = impl_->cloud.xyz[3 * size_t(impl_->original[p]) + d];
+    vind[p] = uint32_t(p);
+  }
+  impl_->cloud.xyz.swap(sorted);
+}
+
+Neighbors::~Neighbors() = default;
+Neighbors::Neighbors(Neighbors&&) noexcept = default;
+Neighbors& Neighbors::operator=(Neighbors&&) noexcept = default;
+
+Eigen::Index Neighbors::size() const { return Eigen::Index(impl_->cloud.kdtree_get_point_count()); }
+
+namespace {
+// One kNN query of the point at leaf position p, self first; writes row `out` of the tables.
+template <class TreeT>
+void query_row(const TreeT& tree, const FloatCloud& cloud, const std::vector<uint32_t>& original,
+               int64_t p, int kk, Eigen::Index out, IndexMatrix& indices,
+               DistanceMatrix* sq_distances) {
+  thread_local std::vector<uint32_t> idx;
+  thread_local std::vector<float> d2;
+  idx.resize(kk);
+  d2.resize(kk);
+  const float* q = &cloud.xyz[3 * p];
+  const size_t found = tree.knnSearch(q, size_t(kk), idx.data(), d2.data());
+  (void)found;
+  // Exact duplicates can put another point first: make the query point column 0.
+  if (idx[0] != uint32_t(p)) {
+    auto it = std::find(idx.begin(), idx.end(), uint32_t(p));
+    if (it == idx.end()) it = idx.end() - 1;  // p lost among > k duplicates: replace the last
+    std::rotate(idx.begin(), it, it + 1);
+    std::rotate(d2.begin(), d2.begin() + (it - idx.begin()), d2.begin() + (it - idx.begin()) + 1);
+    idx[0] = uint32_t(p);
+    d2[0] = 0.f;
+  }
+  for (int j = 0; j < kk; ++j) indices(out, j) = int32_t(original[idx[j]]);
+  if (sq_distances)
+    for (int j = 0; j < kk; ++j) (*sq_distances)(out, j) = d2[j];
+}
+}  // namespace
+
+void Neighbors::knn_all(int k, IndexMatrix& indices, DistanceMatrix* sq_distances,
+                        const RunContext& run) const {
+  if (k < 1) throw InvalidOptions("Neighbors::knn_all: k must be >= 1");
+  const Eigen::Index n = size();
+  const int kk = int(std::min<Eigen::Index>(k, n));
+  detail::resize_fresh(indices, n, kk);  // may hold an earlier table (see resize_fresh)
+  if (sq_distances) detail::resize_fresh(*sq_distances, n, kk);
+  detail::Progress progress(run.progress);
+  if (run.progress) progress.stage("neighbours", 0, 1);
+  const std::vector<uint32_t>& original = impl_->original;
+  // Queries in leaf order (p): consecutive queries walk the same nodes and leaves.
+  detail::parallel_for(n, run.threads, run.progress ? &progress : nullptr, [&](int64_t p) {
+    query_row(*impl_->tree, impl_->cloud, original, p, kk, Eigen::Index(original[size_t(p)]),
+              indices, sq_distances);
+  });
+}
+
+void Neighbors::knn_rows(int k, const std::vector<int64_t>& rows, IndexMatrix& indices,
+                         DistanceMatrix* sq_distances, const RunContext& run) const {
+  if (k < 1) throw InvalidOptions("Neighbors::knn_rows: k must be >= 1");
+  const Eigen::Index n = size();
+  const int kk = int(std::min<Eigen::Index>(k, n));
+  const Eigen::Index r = Eigen::Index(rows.size());
+  // Input index -> leaf position (the inverse of `original`), for the requested rows only.
+  std::vector<int64_t> leaf(rows.size(), -1);
+  {
+    std::vector<int64_t> pos(size_t(n), -1);
+    for (size_t p = 0; p < size_t(n); ++p) pos[impl_->original[p]] = int64_t(p);
+    for (size_t i = 0; i < rows.size(); ++i) {
+      if (rows[i] < 0 || rows[i] >= n) throw InvalidOptions("Neighbors::knn_rows: row out of range");
+      leaf[i] = pos[size_t(rows[i])];
+    }
+  }
+  detail::resize_fresh(indices, r, kk);
+  if (sq_distances) detail::resize_fresh(*sq_distances, r, kk);
+  detail::Progress progress(run.progress);
+  if (run.progress) progress.stage("neighbours", 0, 1);
+  detail::parallel_for(r, run.threads, run.progress ? &progress : nullptr, [&](int64_t i) {
+    query_row(*impl_->tree, impl_->cloud, impl_->original, leaf[size_t(i)], kk, Eigen::Index(i),
+              indices, sq_distances);
+  });
+}
+
+void Neighbors::knn(const Eigen::Vector3d& query, int k, std::vector<int32_t>& indices,
+                    std::vector<float>& sq_distances) const {
+  const size_t kk = size_t(std::max<Eigen::Index>(0, std::min<Eigen::Index>(k, size())));
+  const float q[3] = {float(query[0] - impl_->centre[0]), float(query[1] - impl_->centre[1]),
+                      float(query[2] - impl_->centre[2])};
+  std::vector<uint32_t> idx(kk);
+  sq_distances.resize(kk);
+  const size_t found = kk ? impl_->tree->knnSearch(q, kk, idx.data(), sq_distances.data()) : 0;
+  indices.resize(found);
+  for (size_t j = 0; j < found; ++j) indices[j] = int32_t(impl_->original[idx[j]]);
+  sq_distances.resize(found);
+}
+
+void Neighbors::radius(const Eigen::Vector3d& query, double radius,
+                       std::vector<std::pair<int32_t, float>>& out) const {
+  const float q[3] = {float(query[0] - impl_->centre[0]), float(query[1] - impl_->centre[1]),
+                      float(query[2] - impl_->centre[2])};
+  std::vector<std::pair<uint32_t, float>> res;
+  const float r2 = float(radius * radius);
+  impl_->tree->radiusSearch(q, r2, res, nanoflann::SearchParams(32, 0.f, true));
+  out.clear();
+  out.reserve(res.size());
+  for (auto& p : res) out.emplace_back(int32_t(impl_->original[p.first]), p.second);
+}
+
+}  // namespace nhnet

@@ -1,0 +1,237 @@
+// Spatial tiling of the estimator (not a paper stage; issue 10: bounded memory for any cloud).
+// A cloud with more than EstimateOptions::tile_points finite points is cut into axis-aligned
+// tiles by recursive splits of the longest axis at the point-count quantile (kd-tree style, so
+// every tile holds about tile_points points whatever the density). Each tile runs the whole
+// pipeline (PCA, MFPS, NH-Net) on its own points plus a halo: every point within
+// tile_halo x r_K of the tile's box, r_K the radius of the largest neighbourhood the stages use.
+// The noise level and the spacing, hence every neighbourhood size, are measured once on the whole
+// cloud (its noise probe, exactly the untiled run's) and handed to each tile, and MFPS's random
+// draws depend only on a patch's own members, so a point whose neighbourhoods (and theirs) lie in
+// its tile and halo gets the untiled normal up to floating-point rounding (each tile is
+// re-centred). Peak memory: the canonical points and the result (~90 B/point) plus one tile's
+// working set, instead of the whole cloud's (~1.4 kB/point for MFPS).
+#include "pipeline/tiling.hpp"
+
+#include "nhnet/errors.hpp"
+#include "nhnet/geometry/feature_detection.hpp"
+#include "nhnet/geometry/pca.hpp"
+#include "nhnet/learned/nhnet_model.hpp"
+#include "util/parallel.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <set>
+
+namespace nhnet::detail {
+
+bool wants_tiles(const Points& points, const EstimateOptions& options) {
+  if (options.tile_points <= 0 || points.rows() <= options.tile_points) return false;
+  int64_t finite = 0;
+  for (Eigen::Index i = 0; i < points.rows(); ++i) finite += points.row(i).allFinite() ? 1 : 0;
+  return finite > options.tile_points;
+}
+
+RangeCut split_range(const Points& pts, std::vector<int64_t>& order, int64_t begin, int64_t end,
+                     int64_t parts) {
+  Eigen::RowVector3d lo = pts.row(order[size_t(begin)]), hi = lo;
+  for (int64_t i = begin; i < end; ++i) {
+    lo = lo.cwiseMin(pts.row(order[size_t(i)]));
+    hi = hi.cwiseMax(pts.row(order[size_t(i)]));
+  }
+  Eigen::Index axis;
+  (hi - lo).maxCoeff(&axis);
+  const int64_t mid = begin + (end - begin) * (parts / 2) / parts;
+  // Ties by row: the split depends only on the points, not on the order they came in.
+  std::nth_element(order.begin() + begin, order.begin() + mid, order.begin() + end,
+                   [&](int64_t a, int64_t b) {
+                     const double x = pts(a, axis), y = pts(b, axis);
+                     return x < y || (x == y && a < b);
+                   });
+  return {int(axis), mid, pts(order[size_t(mid)], axis)};
+}
+
+double TileSizes::radius(int k) const {
+  return far_radius * std::sqrt(std::max(1.0, double(k) / double(std::max(1, far_k))));
+}
+
+TileSizes tile_sizes(const Probe& probe, const EstimateOptions& options, int64_t m) {
+  TileSizes t;
+  t.choice = choose_scales(probe.noise.ratio, Eigen::Index(m));
+  if (options.k > 0) t.choice.k_smooth = options.k;
+  if (!options.scales.empty()) t.choice.scales = options.scales;
+  t.kneed = t.choice.k_smooth;
+  if (options.method != Method::Pca)
+    t.kneed = std::max(t.kneed, *std::max_element(t.choice.scales.begin(), t.choice.scales.end()));
+  t.far_radius = probe.far_radius;
+  t.far_k = probe.far_k;
+  return t;
+}
+
+namespace {
+
+struct Leaf {
+  int64_t begin, end;  // range of `order`
+};
+
+// Splits order[begin, end) (rows of pts) into `parts` leaves of nearly equal size (split_range).
+void split(const Points& pts, std::vector<int64_t>& order, int64_t begin, int64_t end,
+           int64_t parts, std::vector<Leaf>& leaves) {
+  if (parts <= 1 || end - begin < 2) {
+    leaves.push_back({begin, end});
+    return;
+  }
+  const RangeCut cut = split_range(pts, order, begin, end, parts);
+  split(pts, order, begin, cut.mid, parts / 2, leaves);
+  split(pts, order, cut.mid, end, parts - parts / 2, leaves);
+}
+
+// Bounding box of each leaf's points (one pass over the owners).
+struct Box {
+  Eigen::RowVector3d lo = Eigen::RowVector3d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::RowVector3d hi = Eigen::RowVector3d::Constant(-std::numeric_limits<double>::infinity());
+};
+
+std::vector<Box> leaf_boxes(const Points& pts, const std::vector<int32_t>& owner, size_t leaves) {
+  std::vector<Box> boxes(leaves);
+  for (Eigen::Index i = 0; i < pts.rows(); ++i) {
+    Box& b = boxes[size_t(owner[size_t(i)])];
+    b.lo = b.lo.cwiseMin(pts.row(i));
+    b.hi = b.hi.cwiseMax(pts.row(i));
+  }
+  return boxes;
+}
+
+// Rows of pts (ascending) within `halo` of `box`.
+std::vector<int64_t> tile_rows(const Points& pts, const Box& box, double halo) {
+  const Eigen::RowVector3d lo = box.lo.array() - halo, hi = box.hi.array() + halo;
+  std::vector<int64_t> rows;
+  for (Eigen::Index i = 0; i < pts.rows(); ++i)
+    if ((pts.row(i).array() >= lo.array()).all() && (pts.row(i).array() <= hi.array()).all())
+      rows.push_back(i);
+  return rows;
+}
+
+Points gather(const Points& pts, const std::vector<int64_t>& rows) {
+  Points tile(Eigen::Index(rows.size()), 3);
+  for (size_t r = 0; r < rows.size(); ++r) tile.row(Eigen::Index(r)) = pts.row(rows[r]);
+  return tile;
+}
+
+}  // namespace
+
+EstimateResult estimate_tiled(const Points& points, const EstimateOptions& options) {
+  start_threads(options.run.threads);
+  const RunContext& run = options.run;
+  Progress top(run.progress);
+  if (run.progress) top.stage("tiling", 0, 0.01);
+
+  EstimateResult res;
+  const Eigen::Index n = points.rows();
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  res.normals.setConstant(n, 3, nan);
+  res.valid.assign(size_t(n), 0);
+  res.curvature.setConstant(n, nan);
+  if (options.method != Method::Pca) res.candidate.assign(size_t(n), 0);
+
+  Canonical canon = canonical_points(points, res.warnings);
+  const Points& pts = canon.pts;
+  const Eigen::Index m = pts.rows();
+
+  // The whole cloud's noise probe: the untiled run's (same canonical points, same frame).
+  const bool need_probe =
+      options.k == 0 || (options.method != Method::Pca && options.scales.empty());
+  Probe probe;
+  {
+    const Neighbors tree(pts);
+    probe = probe_noise(pts, tree, narrow(run, 0.01, 0.04), nullptr);
+  }
+  top.throw_if_cancelled();
+  const TileSizes sizes = tile_sizes(probe, options, int64_t(m));
+  const ScaleChoice& choice = sizes.choice;
+  const auto radius = [&](int k) { return sizes.radius(k); };
+  const double halo = options.tile_halo * radius(sizes.kneed);
+
+  std::vector<int64_t> order(static_cast<size_t>(m));
+  for (Eigen::Index i = 0; i < m; ++i) order[size_t(i)] = i;
+  const int64_t parts = (int64_t(m) + options.tile_points - 1) / options.tile_points;
+  std::vector<Leaf> leaves;
+  split(pts, order, 0, int64_t(m), parts, leaves);
+  std::vector<int32_t> owner(static_cast<size_t>(m), -1);
+  for (size_t t = 0; t < leaves.size(); ++t)
+    for (int64_t i = leaves[t].begin; i < leaves[t].end; ++i) owner[size_t(order[size_t(i)])] = int32_t(t);
+  std::vector<int64_t>().swap(order);
+  const std::vector<Box> boxes = leaf_boxes(pts, owner, leaves.size());
+
+  EstimateOptions o = options;
+  o.tile_points = 0;
+  if (need_probe) {
+    o.known_noise_ratio = probe.noise.ratio;
+    o.known_spacing = probe.noise.spacing;  // tiles are given normalised coordinates
+  }
+  if (options.method == Method::NhNet) o.loaded_model = model_for(options);  // once for all tiles
+
+  // Pass 1 (MFPS, NH-Net): the candidate threshold is chosen from the histogram of the whole
+  // cloud's surface variations (feature_detection.hpp), so every point's variation is computed
+  // first, tile by tile (PCA at the smooth size), and the whole cloud's threshold goes to the tiles.
+  const double span1 = options.method == Method::Pca ? 0.0 : 0.15;
+  if (options.method != Method::Pca) {
+    Eigen::VectorXd variation = Eigen::VectorXd::Constant(m, nan);
+    const int k = int(std::min<Eigen::Index>(choice.k_smooth, m));
+    for (size_t t = 0; t < leaves.size(); ++t) {
+      const std::vector<int64_t> rows = tile_rows(pts, boxes[t], options.tile_halo * radius(k));
+      const Points tile = gather(pts, rows);
+      const RunContext r = narrow(run, 0.04 + span1 * double(t) / double(leaves.size()),
+                                  0.04 + span1 * double(t + 1) / double(leaves.size()));
+      IndexMatrix knn;
+      Neighbors(tile).knn_all(k, knn, nullptr, narrow(r, 0, 0.7));
+      const PcaResult pca = pca_normals(tile, knn, PcaOptions{k}, narrow(r, 0.7, 1));
+      for (size_t i = 0; i < rows.size(); ++i)
+        if (owner[size_t(rows[i])] == int32_t(t)) variation[rows[i]] = pca.variation[Eigen::Index(i)];
+    }
+    o.known_variation_threshold = detect_feature_candidates(variation).absolute_threshold;
+  }
+
+  std::set<std::string> seen(res.warnings.begin(), res.warnings.end());
+  const double begin = 0.04 + span1, span = (0.99 - begin) / double(leaves.size());
+  for (size_t t = 0; t < leaves.size(); ++t) {
+    // The tile: its own points and every point within `halo` of their bounding box, in
+    // canonical order.
+    const std::vector<int64_t> rows = tile_rows(pts, boxes[t], halo);
+    const Points tile = gather(pts, rows);
+    o.run = narrow(run, begin + span * double(t), begin + span * double(t + 1));
+    EstimateResult tr = estimate_normals(tile, o);
+    for (size_t r = 0; r < rows.size(); ++r) {
+      const int64_t i = rows[r];
+      if (owner[size_t(i)] != int32_t(t)) continue;
+      const int64_t row = canon.rows[size_t(i)];
+      res.normals.row(row) = tr.normals.row(Eigen::Index(r));
+      res.valid[size_t(row)] = tr.valid[r];
+      res.curvature[row] = tr.curvature[Eigen::Index(r)];
+      if (!tr.candidate.empty()) res.candidate[size_t(row)] = tr.candidate[r];
+    }
+    if (t == 0) {
+      res.k_used = tr.k_used;
+      res.scales_used = tr.scales_used;
+      res.device_used = tr.device_used;
+      res.descriptor_k = tr.descriptor_k;
+    }
+    for (const std::string& w : tr.warnings)  // counted again below for the whole cloud
+      if (w.find("degenerate neighbourhood") == std::string::npos && seen.insert(w).second)
+        res.warnings.push_back(w);
+  }
+  res.tiles = int(leaves.size());
+  res.noise_ratio = need_probe ? probe.noise.ratio : 0;
+  res.spacing = need_probe ? probe.noise.spacing * canon.unit : 0;
+  finish_result(res, canon.copies, canon.finite_count);
+  if (!res.candidate.empty())
+    for (const int64_t row : canon.rows) res.candidates += res.candidate[size_t(row)];
+  if (run.progress) {
+    top.stage("done", 1, 1);
+    top.throw_if_cancelled();
+  }
+  return res;
+}
+
+}  // namespace nhnet::detail

@@ -1,0 +1,92 @@
+// Internal: the helpers the estimator (estimate.cpp) and the spatial tiling (tiling.cpp) share:
+// canonical point order, the normalised frame, the noise probe, and the tiled run itself.
+#pragma once
+
+#include "nhnet/pipeline/estimate.hpp"
+#include "nhnet/neighbors/neighbors.hpp"
+#include "nhnet/geometry/scales.hpp"
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace nhnet::detail {
+
+/// The finite, deduplicated points of a cloud in canonical (lexicographic) order, normalised.
+struct Canonical {
+  /// Row of `points` for each canonical point (M).
+  std::vector<int64_t> rows;
+  /// For every row of `points` (N): the row of its first exact copy, -1 when not finite.
+  std::vector<int64_t> copies;
+  /// Finite rows of `points`, duplicates included.
+  size_t finite_count = 0;
+  /// M x 3 canonical points in the normalised frame (normalise()).
+  Points pts;
+  /// Input length of one normalised unit.
+  double unit = 1;
+};
+
+/// Recentres `pts` (N x 3, finite) and scales it by a power of two into [-2, 2); returns the
+/// input length of one normalised unit.
+double normalise(Points& pts);
+
+/// Canonical points of `points` (N x 3); appends the non-finite / duplicate warnings. Throws
+/// UnprocessableInput when fewer than 3 distinct finite points remain.
+Canonical canonical_points(const Points& points, std::vector<std::string>& warnings);
+
+struct Probe {
+  /// Noise ratio and spacing (units of the probed points).
+  NoiseEstimate noise;
+  /// 99th percentile of the distance to the far_k-th nearest point among the probed points.
+  double far_radius = 0;
+  int far_k = 0;
+};
+
+/// The noise probe of `pts` (M x 3, canonical order) over `tree` (built on pts): every point of
+/// clouds up to kProbeAllPoints (then `table`, when given, receives the M x 75 probe table),
+/// an evenly spaced subset of larger ones.
+Probe probe_noise(const Points& pts, const Neighbors& tree, const RunContext& run,
+                  IndexMatrix* table);
+
+/// The probe's result from its rows: `d2` (R x K) squared distances to each probed point's K
+/// nearest (self first) and `residual` (R) their PCA residuals, in one length unit.
+Probe probe_from_rows(const DistanceMatrix& d2, const Eigen::VectorXd& residual);
+
+/// What a tiled run (in memory or streamed) hands its tiles: the sizes for the probe's noise level
+/// over m points (the options' k and scales win), the largest neighbourhood the stages use, and
+/// neighbourhood radii from the probe's far radius.
+struct TileSizes {
+  ScaleChoice choice;
+  int kneed = 0;
+  double far_radius = 0;
+  int far_k = 0;
+  /// Radius of a k-neighbourhood (area ~ k on a surface; never below the probe's own radius).
+  double radius(int k) const;
+};
+TileSizes tile_sizes(const Probe& probe, const EstimateOptions& options, int64_t m);
+
+/// Copies each duplicate's result from its first copy (`copies`, from Canonical), counts the
+/// failed rows and warns about the degenerate ones (beyond the N - finite_count non-finite).
+void finish_result(EstimateResult& res, const std::vector<int64_t>& copies, size_t finite_count);
+
+/// Throws InvalidOptions for options no stage accepts.
+void check_options(const EstimateOptions& options);
+
+/// True when `points` has more finite rows than options.tile_points (> 0).
+bool wants_tiles(const Points& points, const EstimateOptions& options);
+
+/// One kd-tree split of the tilings: the longest axis of the bounding box of rows
+/// order[begin, end) of `pts` (N x 3), cut at the point-count quantile (parts / 2) / parts;
+/// reorders the range so that [begin, mid) are below the cut (ties by row).
+struct RangeCut {
+  int axis;
+  int64_t mid;
+  double value;  ///< coordinate of order[mid] on `axis`
+};
+RangeCut split_range(const Points& pts, std::vector<int64_t>& order, int64_t begin, int64_t end,
+                     int64_t parts);
+
+/// estimate_normals in spatial tiles with halos (tiling.cpp).
+EstimateResult estimate_tiled(const Points& points, const EstimateOptions& options);
+
+}  // namespace nhnet::detail
