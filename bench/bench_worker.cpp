@@ -75,7 +75,7 @@ Output run_nhnet(const nhnet::Points& p, const Args& a, nhnet::Method m, bool au
   nhnet::EstimateOptions o;
   o.method = m;
   o.k = auto_k ? 0 : a.k;
-  o.scales = auto_k ? std::vector<int>{} : a.scales;
+  o.mfps.scales = auto_k ? std::vector<int>{} : a.scales;
   o.run.threads = a.threads;
   o.run.progress = [](double, const std::string& stage) {
     g_stages.tick(stage);

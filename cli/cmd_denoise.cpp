@@ -62,7 +62,7 @@ int run_denoise(const DenoiseArgs& a) {
   nhnet::EstimateOptions eopt;
   if (!from_input) eopt.method = nhnet::method_from_string(source);
   eopt.run.threads = dopt.run.threads;
-  eopt.seed = parse_u64("--seed", a.seed);
+  eopt.mfps.seed = parse_u64("--seed", a.seed);
   check_output_format(a.out);
   Reporter rep(a.quiet);
   if (!fallback_why.empty())

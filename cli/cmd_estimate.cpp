@@ -88,15 +88,15 @@ Setup prepare(const EstimateArgs& a) {
                                                : default_method(st.fallback_why);
   opt.method = nhnet::method_from_string(method);
   opt.k = a.k.empty() ? 0 : parse_int("--k", a.k, 3);
-  opt.scales = parse_scales(a.scales);
+  opt.mfps.scales = parse_scales(a.scales);
   opt.run.threads = parse_int("--threads", a.threads, 0);
-  opt.tile_points = parse_int("--tile-points", a.tile_points, 0);
-  if (opt.tile_points > 0 && opt.tile_points < 1000)
+  opt.tiles.points = parse_int("--tile-points", a.tile_points, 0);
+  if (opt.tiles.points > 0 && opt.tiles.points < 1000)
     throw nhnet::InvalidOptions("--tile-points must be 0 (no tiles) or at least 1000, got " +
                                 a.tile_points);
-  opt.seed = parse_u64("--seed", a.seed);
-  opt.model = a.model;
-  opt.device = a.device;
+  opt.mfps.seed = parse_u64("--seed", a.seed);
+  opt.model.path = a.model;
+  opt.model.device = a.device;
   if (a.device != "auto" && a.device != "cpu" && a.device != "cuda")
     throw nhnet::InvalidOptions("--device must be auto, cpu or cuda, got '" + a.device + "'");
   if (opt.method != nhnet::Method::NhNet && nhnet_asked)
@@ -113,7 +113,7 @@ void load_model(const EstimateArgs& a, Setup& st) {
   auto model = std::make_shared<const nhnet::NhNetModel>(st.model_path, a.device,
                                                          st.opt.run.threads);
   st.device = model->device();
-  st.opt.loaded_model = std::move(model);
+  st.opt.model.loaded = std::move(model);
   if (!a.report.empty()) st.model_sha256 = sha256_file(st.model_path);
   // --device auto says up front where it runs when NH-Net was asked for; the summary line
   // always names the device.
@@ -406,7 +406,7 @@ int run_estimate(const EstimateArgs& a) {
     if (st.orient.mode == nhnet::OrientMode::Mst && !a.orient.empty())
       throw nhnet::InvalidOptions("--orient mst needs the whole cloud in memory; with --stream "
                                   "use none, keep or viewpoint X Y Z");
-    if (st.opt.tile_points <= 0)
+    if (st.opt.tiles.points <= 0)
       throw nhnet::InvalidOptions("--stream needs --tile-points > 0");
     const std::string out = batch ? "x." + (a.ext.empty() ? std::string("xyzn") : a.ext) : a.files[1];
     const nhnet::FileFormat f = nhnet::format_from_extension(out);
@@ -420,7 +420,7 @@ int run_estimate(const EstimateArgs& a) {
   if (!st.fallback_why.empty() && !a.quiet)
     std::cerr << "nhnet-cli: warning: method mfps (" << st.fallback_why
               << "; --method nhnet needs it)" << std::endl;
-  if (st.opt.method == nhnet::Method::Pca && !st.opt.scales.empty() && !a.quiet)
+  if (st.opt.method == nhnet::Method::Pca && !st.opt.mfps.scales.empty() && !a.quiet)
     std::cerr << "nhnet-cli: warning: --scales is ignored with --method pca" << std::endl;
   if (batch) {
     std::error_code ec;

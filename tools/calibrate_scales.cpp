@@ -72,7 +72,7 @@ int main(int argc, char** argv) {
       // blend, the PCA normal and the ground truth; the header has the squared error summed
       // over every other point (where the blend changes nothing).
       EstimateOptions o;
-      o.mfps_record_blend = true;
+      o.mfps.record_blend_features = true;
       const EstimateResult r = estimate_normals(p, o);
       o.method = Method::Pca;
       o.k = r.k_used;
@@ -113,21 +113,21 @@ int main(int argc, char** argv) {
         const std::string key = kv.substr(0, kv.find('='));
         const std::string val = kv.substr(kv.find('=') + 1);
         if (key == "k") o.k = std::stoi(val);
-        if (key == "samples") o.mfps_samples = std::stoi(val);
-        if (key == "subset") o.mfps_score_subset = std::stoi(val);
-        if (key == "rescore") o.mfps_rescore = std::stoi(val);
-        if (key == "refine") o.mfps_refine_iterations = std::stoi(val);
+        if (key == "samples") o.mfps.samples = std::stoi(val);
+        if (key == "subset") o.mfps.score_subset = std::stoi(val);
+        if (key == "rescore") o.mfps.rescore = std::stoi(val);
+        if (key == "refine") o.mfps.refine_iterations = std::stoi(val);
         if (key == "method") o.method = method_from_string(val);
-        if (key == "beta") o.mfps_posterior_beta = std::stod(val);
-        if (key == "geo") o.mfps_edge_sigma_factor = std::stod(val);
-        if (key == "fpt") o.mfps_point_sigma_factor = std::stod(val);
-        if (key == "pcablend") o.mfps_pca_blend = std::stoi(val) != 0;
+        if (key == "beta") o.mfps.posterior_beta = std::stod(val);
+        if (key == "geo") o.mfps.edge_sigma_factor = std::stod(val);
+        if (key == "fpt") o.mfps.point_sigma_factor = std::stod(val);
+        if (key == "pcablend") o.mfps.pca_blend = std::stoi(val) != 0;
         if (key == "s") {
           size_t q = 0;
           while (q < val.size()) {
             size_t r = val.find('/', q);
             if (r == std::string::npos) r = val.size();
-            o.scales.push_back(std::stoi(val.substr(q, r - q)));
+            o.mfps.scales.push_back(std::stoi(val.substr(q, r - q)));
             q = r + 1;
           }
         }

@@ -56,14 +56,14 @@ struct Prepared {
 Prepared prepare(const NormalsSettings& s) {
   Prepared p;
   p.options.method = nhnet::method_from_string(str(s.method.trimmed().toLower()));
-  p.options.scales = parse_scales(s.scales);
+  p.options.mfps.scales = parse_scales(s.scales);
   if (s.threads < 0) throw nhnet::InvalidOptions("threads must be >= 0 (0 = all cores)");
   p.options.run.threads = s.threads;
-  if (p.options.method == nhnet::Method::Pca && !p.options.scales.empty())
+  if (p.options.method == nhnet::Method::Pca && !p.options.mfps.scales.empty())
     p.warnings << "scales are ignored by the pca method";
   if (!s.model.isEmpty() && !uses_model(p.options.method))
     p.warnings << QString("model file ignored: method %1 uses no model").arg(s.method);
-  if (uses_model(p.options.method)) p.options.model = str(s.model.trimmed());  // empty = shipped
+  if (uses_model(p.options.method)) p.options.model.path = str(s.model.trimmed());  // empty = shipped
   return p;
 }
 

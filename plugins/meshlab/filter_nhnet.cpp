@@ -242,7 +242,7 @@ void NhnetFilterPlugin::initParameterSet(QAction* action, MeshModel& m, RichPara
                            "orientation propagates over."));
       par.addParam(RichInt("threads", e.run.threads, "Threads (0 = all cores)",
                            "Worker threads; 0 = all cores. Results do not depend on it."));
-      par.addParam(RichInt("seed", int(e.seed), "Random seed",
+      par.addParam(RichInt("seed", int(e.mfps.seed), "Random seed",
                            "Seed of MFPS's random plane samples (results are deterministic for "
                            "a seed)."));
       par.addParam(RichString("model", "", "NH-Net model file",
@@ -312,15 +312,15 @@ void NhnetFilterPlugin::estimate(MeshModel& mm, const RichParameterList& par,
   nhnet::EstimateOptions opt;
   opt.method = choice(kMethods, par, "method");
   opt.k = par.getInt("k");
-  opt.scales = scales_from(par.getString("scales"));
+  opt.mfps.scales = scales_from(par.getString("scales"));
   nhnet::OrientOptions oopt;
   oopt.mode = choice(kOrientations, par, "orientation");
   const vcg::Point3f vp = par.getPoint3f("viewpoint");
   oopt.viewpoint = Eigen::Vector3d(vp[0], vp[1], vp[2]);
   oopt.k = par.getInt("mst_k");
   opt.run.threads = non_negative(par, "threads");
-  opt.seed = uint64_t(non_negative(par, "seed"));
-  if (opt.method == nhnet::Method::NhNet) opt.model = par.getString("model").trimmed().toStdString();
+  opt.mfps.seed = uint64_t(non_negative(par, "seed"));
+  if (opt.method == nhnet::Method::NhNet) opt.model.path = par.getString("model").trimmed().toStdString();
   opt.run.progress = progress_of(cb);
   oopt.run = opt.run;
 

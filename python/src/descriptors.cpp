@@ -2,7 +2,7 @@
 // training package uses, so training sees exactly the descriptors that inference computes.
 #include "bindings.hpp"
 
-#include "nhnet/learned/descriptors.hpp"
+#include "nhnet/pipeline/describe.hpp"
 
 #include <pybind11/stl.h>
 
@@ -28,9 +28,9 @@ void register_descriptors(py::module_& m) {
   m.def(
       "descriptors",
       [](const py::handle& points, int threads, uint64_t seed, const py::object& progress) {
-        DescriptorOptions opt;
+        DescribeOptions opt;
         opt.estimate.run.threads = threads;
-        opt.estimate.seed = seed;
+        opt.estimate.mfps.seed = seed;
         const Points pts = to_points(points, "points");
         Descriptors d = run_released(progress, [&](ProgressCallback cb) {
           opt.estimate.run.progress = std::move(cb);

@@ -30,9 +30,9 @@ PyEstimateResult estimate(const py::handle& points, const std::string& method, i
   EstimateOptions opt;
   opt.method = method_from_string(method);
   opt.k = k;
-  if (scales) opt.scales = *scales;
+  if (scales) opt.mfps.scales = *scales;
   opt.run.threads = threads;
-  opt.seed = seed;
+  opt.mfps.seed = seed;
   const Points pts = to_points(points, "points");
   OrientRequest req =
       orient_request(orient, py::none(), viewpoint, OrientOptions().k, pts.rows());

@@ -6,6 +6,7 @@
 #include "nhnet/learned/bilateral_filter.hpp"
 #include "nhnet/learned/canonical_frame.hpp"
 #include "nhnet/learned/descriptors.hpp"
+#include "nhnet/pipeline/describe.hpp"
 #include "nhnet/learned/height_map.hpp"
 #include "nhnet/eval/metrics.hpp"
 #include "nhnet/geometry/pca.hpp"
@@ -118,9 +119,9 @@ TEST(HeightMap, PlaneIsFlatSphereCurvesAway) {
 
 TEST(Descriptors, InvariantToRotationTranslationScale) {
   const auto f = fixtures::cube(6000, 0.01, 8);
-  DescriptorOptions o;
+  DescribeOptions o;
   const Descriptors d = describe(f.points, o);
-  ASSERT_EQ(d.features.cols(), descriptor_size(o));
+  ASSERT_EQ(d.features.cols(), descriptor_size(o.descriptor));
   ASSERT_EQ(d.features.cols(), 468);
   EXPECT_GT(d.k_used, 10);
 
@@ -151,13 +152,13 @@ TEST(Descriptors, GeometryStageWithoutThePcaBlend) {
   // Python bindings) and inference both take their normals from describe()/prepare_descriptors,
   // which must therefore leave the blend off whatever EstimateOptions say.
   const auto f = fixtures::cube(6000, 0.006 * 2 * std::sqrt(3.0), 4);
-  DescriptorOptions d;
-  d.estimate.mfps_pca_blend = true;  // ignored: DescriptorOptions::mfps_pca_blend decides
+  DescribeOptions d;
+  d.estimate.mfps.pca_blend = true;  // ignored: DescribeOptions::mfps_pca_blend decides
   const Descriptors des = describe(f.points, d);
   EstimateOptions o;
-  o.mfps_pca_blend = false;
+  o.mfps.pca_blend = false;
   const EstimateResult plain = estimate_normals(f.points, o);
-  o.mfps_pca_blend = true;
+  o.mfps.pca_blend = true;
   const EstimateResult blended = estimate_normals(f.points, o);
   ASSERT_EQ(des.geometry.normals.rows(), plain.normals.rows());
   EXPECT_EQ((des.geometry.normals - plain.normals).cwiseAbs().maxCoeff(), 0.0);

@@ -54,7 +54,7 @@ TEST(Mfps, BeatsPcaNearCubeEdges) {
 
   EstimateOptions mfps;
   mfps.method = Method::Mfps;
-  mfps.scales = {50, 100, 150};  // the paper's scales, so PCA k=100 is a like-for-like peer
+  mfps.mfps.scales = {50, 100, 150};  // the paper's scales, so PCA k=100 is a like-for-like peer
   const EstimateResult rm = estimate_normals(f.points, mfps);
   EXPECT_EQ(rm.failed, 0);
   EXPECT_GT(rm.candidates, 0);
@@ -85,7 +85,7 @@ TEST(Mfps, BeatsPcaNearCubeEdges) {
 TEST(Mfps, DeterministicAcrossThreadCounts) {
   const auto f = fixtures::cube(8000, 0.004, 3);
   EstimateOptions o;
-  o.scales = {20, 40, 60};
+  o.mfps.scales = {20, 40, 60};
   o.run.threads = 1;
   const EstimateResult a = estimate_normals(f.points, o);
   o.run.threads = 2;
@@ -117,9 +117,9 @@ TEST(Mfps, EdgePosteriorLowersErrorNearEdges) {
   const auto f = fixtures::cube(20000, noise, 11);
   auto rms_near = [&](double beta, double geo) {
     EstimateOptions o;
-    o.mfps_pca_blend = false;  // the posterior steps alone (the blend has its own test)
-    o.mfps_posterior_beta = beta;
-    o.mfps_edge_sigma_factor = geo;
+    o.mfps.pca_blend = false;  // the posterior steps alone (the blend has its own test)
+    o.mfps.posterior_beta = beta;
+    o.mfps.edge_sigma_factor = geo;
     const EstimateResult r = estimate_normals(f.points, o);
     const Eigen::VectorXd e = angle_errors_deg(r.normals, f.normals);
     double s = 0;
@@ -160,9 +160,9 @@ TEST(Mfps, PcaBlendLowersRmsAtHighNoise) {
   const double noise = 0.02 * 2 * std::sqrt(3.0);
   const auto f = fixtures::cube(20000, noise, 11);
   EstimateOptions o;
-  o.mfps_record_blend = true;
+  o.mfps.record_blend_features = true;
   const EstimateResult blended = estimate_normals(f.points, o);
-  o.mfps_pca_blend = false;
+  o.mfps.pca_blend = false;
   const EstimateResult plain = estimate_normals(f.points, o);
   o.method = Method::Pca;
   o.k = plain.k_used;

@@ -4,6 +4,7 @@
 // tests/data/make_nhnet_golden.py). Also: metadata mismatch and unavailable CUDA are refused.
 #include "nhnet/learned/descriptors.hpp"
 #include "nhnet/errors.hpp"
+#include "nhnet/pipeline/describe.hpp"
 #include "nhnet/pipeline/estimate.hpp"
 #include "nhnet/learned/nhnet_model.hpp"
 
@@ -63,7 +64,7 @@ TEST(NhNetModel, BuiltWithLibtorch) {
 
 TEST(NhNetModel, TrainingDescriptorsEqualInferenceDescriptors) {
   const Golden g = read_golden();
-  const Descriptors d = describe(g.points, DescriptorOptions{});
+  const Descriptors d = describe(g.points, DescribeOptions{});
   ASSERT_EQ(d.features.rows(), g.points.rows());
   ASSERT_EQ(d.features.cols(), g.features.cols());
   ASSERT_GT(g.rows.size(), 50u);
@@ -141,15 +142,15 @@ TEST(NhNetModel, EstimateWithModelGivesUnitNormals) {
   const Golden g = read_golden();
   EstimateOptions o;
   o.method = Method::NhNet;
-  o.model = kData + "nhnet_tiny.pt";
-  o.device = "cpu";
+  o.model.path = kData + "nhnet_tiny.pt";
+  o.model.device = "cpu";
   const EstimateResult r = estimate_normals(g.points, o);
   EXPECT_EQ(r.device_used, "cpu");
   EXPECT_EQ(r.failed, 0);
   for (Eigen::Index i = 0; i < r.normals.rows(); ++i) EXPECT_NEAR(r.normals.row(i).norm(), 1.0, 1e-9);
   // Block by block (small blocks) gives the same normals as one block: descriptors of a block
   // only depend on the whole cloud's neighbour table. 1e-5: float32 model output, see above.
-  o.nhnet_batch = 97;
+  o.model.batch = 97;
   const EstimateResult b = estimate_normals(g.points, o);
   EXPECT_LT((r.normals - b.normals).cwiseAbs().maxCoeff(), 1e-5);
   // And they are the model's refinement, not the MFPS normals passed through.

@@ -57,7 +57,7 @@ class Stream : public ::testing::Test {
 StreamOptions options(Method m, int64_t tile_points) {
   StreamOptions o;
   o.estimate.method = m;
-  o.estimate.tile_points = tile_points;
+  o.estimate.tiles.points = tile_points;
   o.estimate.run.threads = 2;
   o.orient.mode = OrientMode::None;
   return o;

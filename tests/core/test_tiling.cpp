@@ -33,7 +33,7 @@ double share_differing(const EstimateResult& a, const EstimateResult& b, double 
 }
 
 EstimateResult run(const Points& p, EstimateOptions o, int64_t tile_points) {
-  o.tile_points = tile_points;
+  o.tiles.points = tile_points;
   o.run.threads = 2;
   return estimate_normals(p, o);
 }
@@ -74,7 +74,7 @@ TEST(Tiling, TooSmallAHaloChangesTheBorderPoints) {
   EstimateOptions o;
   o.method = Method::Mfps;
   const EstimateResult whole = run(f.points, o, 0);
-  o.tile_halo = 0.1;
+  o.tiles.halo = 0.1;
   const EstimateResult tiled = run(f.points, o, 8000);
   EXPECT_GT(share_differing(tiled, whole, 1e-3), 0.01);
 }
@@ -111,7 +111,7 @@ TEST(Tiling, ProgressReachesOneAndCancelStops) {
   const auto f = fixtures::cube(12000, 0.004, 2);
   EstimateOptions o;
   o.method = Method::Mfps;
-  o.tile_points = 4000;
+  o.tiles.points = 4000;
   o.run.threads = 2;
   double last = -1;
   bool monotone = true;
@@ -136,8 +136,8 @@ TEST(Tiling, NhNetTilesEqualTheUntiledRun) {
   const auto f = fixtures::cube(9000, 0.004, 4);
   EstimateOptions o;
   o.method = Method::NhNet;
-  o.model = std::string(NHNET_SOURCE_DIR) + "/tests/data/nhnet_tiny.pt";
-  o.device = "cpu";
+  o.model.path = std::string(NHNET_SOURCE_DIR) + "/tests/data/nhnet_tiny.pt";
+  o.model.device = "cpu";
   const EstimateResult whole = run(f.points, o, 0);
   const EstimateResult tiled = run(f.points, o, 3000);
   EXPECT_EQ(tiled.tiles, 3);

@@ -2,7 +2,6 @@
 #include "nhnet/learned/descriptors.hpp"
 
 #include "nhnet/errors.hpp"
-#include "nhnet/neighbors/neighbors.hpp"
 #include "util/parallel.hpp"
 
 #include <algorithm>
@@ -30,63 +29,6 @@ void compute_descriptors(const Points& points, const Normals& normals, const Ind
   features.leftCols(nf) = frames.rotated.cast<float>();
   features.rightCols(maps.cols()) = maps;
   rotations = std::move(frames.rotations);
-}
-
-DescriptorInput prepare_descriptors(const Points& points, const DescriptorOptions& options) {
-  if (!(options.neighborhood_factor > 0))
-    throw InvalidOptions("descriptor neighborhood factor must be > 0");
-  DescriptorInput in;
-  EstimateOptions eo = options.estimate;
-  eo.method = Method::Mfps;
-  eo.mfps_pca_blend = options.mfps_pca_blend;
-  eo.run = detail::narrow(options.estimate.run, 0, 0.9);
-  in.geometry = estimate_normals(points, eo);
-  const Eigen::Index n = points.rows();
-  for (Eigen::Index i = 0; i < n; ++i)
-    if (in.geometry.valid[size_t(i)]) in.rows.push_back(i);
-  const Eigen::Index m = Eigen::Index(in.rows.size());
-  if (m <= options.filter.spacing_k) {
-    in.geometry.warnings.push_back("too few points with a normal for descriptors");
-    in.rows.clear();
-    return in;
-  }
-  in.points.resize(m, 3);
-  in.normals.resize(m, 3);
-  for (Eigen::Index i = 0; i < m; ++i) {
-    in.points.row(i) = points.row(in.rows[size_t(i)]);
-    in.normals.row(i) = in.geometry.normals.row(in.rows[size_t(i)]);
-  }
-  const auto& sc = in.geometry.scales_used;
-  const int kmin = sc.empty() ? 50 : *std::min_element(sc.begin(), sc.end());
-  in.k = int(std::min<Eigen::Index>(
-      m, std::max(options.filter.spacing_k + 1,
-                  int(std::ceil(options.neighborhood_factor * kmin - 1e-9)))));
-  Neighbors tree(in.points);
-  tree.knn_all(in.k, in.knn, nullptr, detail::narrow(options.estimate.run, 0.9, 1));
-  return in;
-}
-
-Descriptors describe(const Points& points, const DescriptorOptions& options) {
-  DescriptorOptions o = options;
-  o.estimate.run = detail::narrow(options.estimate.run, 0, 0.8);
-  DescriptorInput in = prepare_descriptors(points, o);
-  Descriptors out;
-  const Eigen::Index n = points.rows();
-  out.features.setConstant(n, descriptor_size(options), std::numeric_limits<float>::quiet_NaN());
-  out.rotations.setConstant(n, 9, std::numeric_limits<double>::quiet_NaN());
-  out.k_used = in.k;
-  if (!in.rows.empty()) {
-    DescriptorMatrix feat;
-    Rotations rot;
-    compute_descriptors(in.points, in.normals, in.knn, in.k, options, feat, rot,
-                        detail::narrow(options.estimate.run, 0.8, 1));
-    for (size_t i = 0; i < in.rows.size(); ++i) {
-      out.features.row(in.rows[i]) = feat.row(Eigen::Index(i));
-      out.rotations.row(in.rows[i]) = rot.row(Eigen::Index(i));
-    }
-  }
-  out.geometry = std::move(in.geometry);
-  return out;
 }
 
 }  // namespace nhnet

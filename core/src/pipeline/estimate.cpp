@@ -8,11 +8,10 @@
 #include "nhnet/geometry/bandwidth.hpp"
 #include "nhnet/geometry/feature_detection.hpp"
 #include "nhnet/geometry/mfps.hpp"
-#include "nhnet/learned/nhnet_model.hpp"
 #include "nhnet/geometry/scales.hpp"
 #include "neighbors/dedupe.hpp"
 #include "util/stats.hpp"
-#include "pipeline/tiling.hpp"
+#include "pipeline/estimator.hpp"
 #include "util/parallel.hpp"
 
 #include <algorithm>
@@ -186,13 +185,13 @@ void finish_result(EstimateResult& res, const std::vector<int64_t>& copies, size
 void check_options(const EstimateOptions& options) {
   if (options.k < 0 || options.k == 1 || options.k == 2)
     throw InvalidOptions("k must be 0 (auto) or at least 3, got " + std::to_string(options.k));
-  for (int s : options.scales)
+  for (int s : options.mfps.scales)
     if (s < 4) throw InvalidOptions("every scale must be at least 4, got " + std::to_string(s));
   if (options.run.threads < 0) throw InvalidOptions("threads must be >= 0");
-  if (options.mfps_samples < 1) throw InvalidOptions("mfps samples must be >= 1");
-  if (options.tile_points < 0) throw InvalidOptions("tile points must be >= 0 (0 = no tiles)");
-  if (!(options.tile_halo > 0)) throw InvalidOptions("tile halo must be > 0");
-  if (options.method == Method::NhNet && options.nhnet_batch < 1)
+  if (options.mfps.samples < 1) throw InvalidOptions("mfps samples must be >= 1");
+  if (options.tiles.points < 0) throw InvalidOptions("tile points must be >= 0 (0 = no tiles)");
+  if (!(options.tiles.halo > 0)) throw InvalidOptions("tile halo must be > 0");
+  if (options.method == Method::NhNet && options.model.batch < 1)
     throw InvalidOptions("nhnet batch must be >= 1");
 }
 
@@ -203,145 +202,197 @@ namespace {
 int max_scale(const std::vector<int>& scales) {
   return scales.empty() ? 0 : *std::max_element(scales.begin(), scales.end());
 }
-}  // namespace
 
-EstimateResult estimate_normals(const Points& points, const EstimateOptions& options) {
-  detail::check_options(options);
-  if (detail::wants_tiles(points, options)) return detail::estimate_tiled(points, options);
-  if (options.method == Method::NhNet) return estimate_nhnet(points, options);
-  detail::start_threads(options.run.threads);  // before the big allocations
-
-  EstimateResult res;
-  const Eigen::Index n = points.rows();
-  res.normals.setConstant(n, 3, std::numeric_limits<double>::quiet_NaN());
-  res.valid.assign(size_t(n), 0);
-  res.curvature.setConstant(n, std::numeric_limits<double>::quiet_NaN());
-
-  detail::Canonical canon = detail::canonical_points(points, res.warnings);
-  const std::vector<int64_t>& finite = canon.rows;
-  const std::vector<int64_t>& copies = canon.copies;
-  const size_t finite_count = canon.finite_count;
-  const Eigen::Index m = canon.pts.rows();
-  Points& pts = canon.pts;
-  const double unit = canon.unit;
-
-  const RunContext& run = options.run;
-  detail::Progress top(run.progress);
-  if (run.progress) top.stage("kd-tree", 0, 0.02);
-  Neighbors tree(pts);
-  top.throw_if_cancelled();
-
-  // Noise probe (probe_noise): skipped when every size is given explicitly or the tiling
-  // measured the whole cloud already (known_spacing).
-  const bool known = options.known_spacing > 0;
+/// The noise level and spacing (normalised units) of the canonical points: the tiling's when it
+/// measured them, else the noise probe's when some size is automatic (`knn` then receives the
+/// probe's neighbour table), else unknown (0).
+void measure_noise(const Points& pts, const Neighbors& tree, double unit,
+                   const EstimateOptions& options, const detail::TileOverrides& overrides,
+                   IndexMatrix& knn, EstimateResult& res) {
+  if (overrides.spacing > 0) {
+    res.noise_ratio = overrides.noise_ratio;
+    res.spacing = overrides.spacing / unit;
+    return;
+  }
   const bool need_probe =
-      !known && (options.k == 0 || (options.method == Method::Mfps && options.scales.empty()));
-  IndexMatrix knn;
-  if (known) {
-    res.noise_ratio = options.known_noise_ratio;
-    res.spacing = options.known_spacing / unit;
-  } else if (need_probe) {
-    const detail::Probe probe = detail::probe_noise(pts, tree, run, &knn);
-    res.noise_ratio = probe.noise.ratio;
-    res.spacing = probe.noise.spacing;
-  }
-  const double spacing = res.spacing;  // normalised units, for the stages below
+      options.k == 0 || (options.method == Method::Mfps && options.mfps.scales.empty());
+  if (!need_probe) return;
+  const detail::Probe probe = detail::probe_noise(pts, tree, options.run, &knn);
+  res.noise_ratio = probe.noise.ratio;
+  res.spacing = probe.noise.spacing;
+}
+
+/// PCA k and MFPS scales for m points (scales.hpp; the options' k and scales win), clamped to
+/// the cloud with a warning when it is smaller than the sizes want; sets res.k_used.
+ScaleChoice choose_sizes(const EstimateOptions& options, Eigen::Index m, EstimateResult& res) {
   ScaleChoice choice = choose_scales(res.noise_ratio, m);
-  {
-    // Fewer points than the automatic sizes want: the sizes are clamped to the cloud (the
-    // documented fallback), and the user is told.
-    const ScaleChoice wanted = choose_scales(res.noise_ratio, kMaxScale);
-    const bool mfps_auto = options.method == Method::Mfps && options.scales.empty();
-    if ((options.k == 0 && wanted.k_smooth > choice.k_smooth) ||
-        (mfps_auto && max_scale(wanted.scales) > max_scale(choice.scales)))
-      res.warnings.push_back("only " + std::to_string(m) + " finite points, fewer than the " +
-                             std::to_string(mfps_auto ? max_scale(wanted.scales) : wanted.k_smooth) +
-                             " neighbours the automatic scale wants; neighbourhoods clamped to " +
-                             std::to_string(m) + " points");
-  }
+  const ScaleChoice wanted = choose_scales(res.noise_ratio, kMaxScale);
+  const bool mfps_auto = options.method == Method::Mfps && options.mfps.scales.empty();
+  if ((options.k == 0 && wanted.k_smooth > choice.k_smooth) ||
+      (mfps_auto && max_scale(wanted.scales) > max_scale(choice.scales)))
+    res.warnings.push_back("only " + std::to_string(m) + " finite points, fewer than the " +
+                           std::to_string(mfps_auto ? max_scale(wanted.scales) : wanted.k_smooth) +
+                           " neighbours the automatic scale wants; neighbourhoods clamped to " +
+                           std::to_string(m) + " points");
   if (options.k > 0) choice.k_smooth = options.k;
-  if (!options.scales.empty()) choice.scales = options.scales;
+  if (!options.mfps.scales.empty()) choice.scales = options.mfps.scales;
   if (choice.k_smooth > m) {
     res.warnings.push_back("k=" + std::to_string(choice.k_smooth) + " exceeds the " +
                            std::to_string(m) + " finite points; clamped");
     choice.k_smooth = int(m);
   }
   res.k_used = choice.k_smooth;
+  return choice;
+}
+
+/// Depth of the shared neighbour table: the largest size a stage uses, at most m (with a
+/// warning when MFPS's largest scale is clamped).
+int table_depth(const EstimateOptions& options, const ScaleChoice& choice, Eigen::Index m,
+                EstimateResult& res) {
   const int kneed =
       options.method == Method::Mfps ? std::max(res.k_used, max_scale(choice.scales)) : res.k_used;
   if (kneed > m && options.method == Method::Mfps)
     res.warnings.push_back("largest scale " + std::to_string(kneed) + " exceeds the " +
                            std::to_string(m) + " finite points; scales clamped");
-  // Rows are sorted by distance, so the probe's table serves any smaller size as its prefix.
-  const int kdepth = int(std::min<Eigen::Index>(kneed, m));
+  return int(std::min<Eigen::Index>(kneed, m));
+}
+
+/// The one neighbour table every stage shares, `kdepth` deep. Rows are sorted by distance, so
+/// the probe's table serves any smaller size as its prefix.
+void neighbour_table(const Neighbors& tree, int kdepth, const RunContext& run, IndexMatrix& knn) {
   if (kdepth > knn.cols()) tree.knn_all(kdepth, knn, nullptr, detail::narrow(run, 0.2, 0.35));
   else if (knn.cols() > kdepth) knn = knn.leftCols(kdepth).eval();  // only what the stages use
+}
 
-  const PcaResult pca = pca_normals(pts, knn, PcaOptions{res.k_used}, detail::narrow(run, 0.35, 0.45));
-  Normals out = pca.normals;
-  if (options.method == Method::Mfps) {
-    FeatureDetectionOptions fo;
-    fo.fixed_threshold = options.known_variation_threshold;
-    const FeatureDetection fd = detect_feature_candidates(pca.variation, fo);
-    res.candidates = fd.count;
-    res.candidate.assign(size_t(n), 0);
-    for (Eigen::Index i = 0; i < m; ++i) res.candidate[size_t(finite[size_t(i)])] = fd.candidate[size_t(i)];
-    BandwidthOptions bo;
-    bo.k_patch = res.k_used;
-    bo.k_average = kdepth;
-    const Eigen::VectorXd bw = residual_bandwidth(pts, knn, spacing, bo, detail::narrow(run, 0.45, 0.55));
-    MfpsOptions mo;
-    mo.scales = choice.scales;
-    for (int& s : mo.scales) s = int(std::min<Eigen::Index>(s, m));
-    mo.seed = options.seed;
-    mo.samples = options.mfps_samples;
-    mo.score_subset = options.mfps_score_subset;
-    mo.rescore = options.mfps_rescore;
-    mo.refine_iterations = options.mfps_refine_iterations;
-    mo.point_sigma_factor = options.mfps_point_sigma_factor;
-    mo.posterior_beta = options.mfps_posterior_beta;
-    mo.edge_sigma_factor = options.mfps_edge_sigma_factor;
-    mo.pca_blend = options.mfps_pca_blend;
-    mo.record_blend_features = options.mfps_record_blend;
-    const MfpsResult mr = mfps_normals(pts, knn, 2.0 * bw, fd.candidate, pca.normals, mo,
-                                       detail::narrow(run, 0.55, 1.0));
-    res.scales_used = mo.scales;
-    out = mr.normals;
-    if (options.mfps_record_blend) {
-      const Eigen::Index rows = Eigen::Index(mr.blend_rows.size());
-      res.mfps_blend_features = mr.blend_features;
-      res.mfps_unblended.resize(rows, 3);
-      for (Eigen::Index r = 0; r < rows; ++r) {
-        const int64_t i = mr.blend_rows[size_t(r)];
-        res.mfps_blend_rows.push_back(finite[size_t(i)]);
-        res.mfps_unblended.row(r) = mr.unblended_normals.row(i);
-      }
+/// What MFPS needs besides the points: the canonical rows and the sizes the pipeline chose.
+struct MfpsInput {
+  const std::vector<int64_t>& finite;
+  const ScaleChoice& choice;
+  int kdepth;
+  double spacing;  // normalised units
+};
+
+/// Paper Sec. 4: candidates near sharp features from the PCA surface variation, the residual
+/// bandwidth as the kernel width sigma_j = 2 b, then MFPS (Eq. 1-4) on the candidates; the
+/// other points keep their PCA normal. Fills the candidate flags, scales and blend diagnostics.
+Normals mfps_stage(const Points& pts, const IndexMatrix& knn, const PcaResult& pca,
+                   const MfpsInput& in, const EstimateOptions& options,
+                   const detail::TileOverrides& overrides, EstimateResult& res) {
+  const Eigen::Index m = pts.rows();
+  FeatureDetectionOptions fo;
+  fo.fixed_threshold = overrides.variation_threshold;
+  const FeatureDetection fd = detect_feature_candidates(pca.variation, fo);
+  res.candidates = fd.count;
+  res.candidate.assign(res.valid.size(), 0);
+  for (Eigen::Index i = 0; i < m; ++i) res.candidate[size_t(in.finite[size_t(i)])] = fd.candidate[size_t(i)];
+  BandwidthOptions bo;
+  bo.k_patch = res.k_used;
+  bo.k_average = in.kdepth;
+  const Eigen::VectorXd bw =
+      residual_bandwidth(pts, knn, in.spacing, bo, detail::narrow(options.run, 0.45, 0.55));
+  MfpsOptions mo = options.mfps;
+  mo.scales = in.choice.scales;
+  for (int& s : mo.scales) s = int(std::min<Eigen::Index>(s, m));
+  const MfpsResult mr = mfps_normals(pts, knn, 2.0 * bw, fd.candidate, pca.normals, mo,
+                                     detail::narrow(options.run, 0.55, 1.0));
+  res.scales_used = mo.scales;
+  if (mo.record_blend_features) {
+    const Eigen::Index rows = Eigen::Index(mr.blend_rows.size());
+    res.mfps_blend_features = mr.blend_features;
+    res.mfps_unblended.resize(rows, 3);
+    for (Eigen::Index r = 0; r < rows; ++r) {
+      const int64_t i = mr.blend_rows[size_t(r)];
+      res.mfps_blend_rows.push_back(in.finite[size_t(i)]);
+      res.mfps_unblended.row(r) = mr.unblended_normals.row(i);
     }
   }
+  return mr.normals;
+}
 
-  if (options.method == Method::Mfps && kdepth >= 3) {
-    // A candidate whose largest neighbourhood is collinear (or one point) has no plane: MFPS's
-    // random planes through it would be arbitrary, so it stays invalid like its PCA normal.
-    for (Eigen::Index i = 0; i < m; ++i)
-      if (!pca.normals.row(i).allFinite() && out.row(i).allFinite() &&
-          !fit_plane(pts, &knn(i, 0), kdepth, nullptr, nullptr).allFinite())
-        out.row(i).setConstant(std::numeric_limits<double>::quiet_NaN());
-  }
-  for (Eigen::Index i = 0; i < m; ++i) {
+/// A candidate whose largest neighbourhood is collinear (or one point) has no plane: MFPS's
+/// random planes through it would be arbitrary, so it stays invalid like its PCA normal.
+void drop_planeless(const Points& pts, const IndexMatrix& knn, int kdepth, const Normals& pca,
+                    Normals& out) {
+  if (kdepth < 3) return;
+  for (Eigen::Index i = 0; i < pts.rows(); ++i)
+    if (!pca.row(i).allFinite() && out.row(i).allFinite() &&
+        !fit_plane(pts, &knn(i, 0), kdepth, nullptr, nullptr).allFinite())
+      out.row(i).setConstant(std::numeric_limits<double>::quiet_NaN());
+}
+
+/// Unit normals and curvatures of the canonical points back to their input rows.
+void scatter(const Normals& out, const Eigen::VectorXd& variation,
+             const std::vector<int64_t>& finite, EstimateResult& res) {
+  for (Eigen::Index i = 0; i < out.rows(); ++i) {
     const Eigen::RowVector3d nrm = out.row(i);
     if (nrm.allFinite() && nrm.squaredNorm() > 0.5) {
       res.normals.row(finite[size_t(i)]) = nrm.normalized();
       res.valid[size_t(finite[size_t(i)])] = 1;
-      res.curvature[finite[size_t(i)]] = pca.variation[i];
+      res.curvature[finite[size_t(i)]] = variation[i];
     }
   }
-  res.spacing = spacing * unit;
-  detail::finish_result(res, copies, finite_count);
+}
+
+}  // namespace
+
+namespace detail {
+
+EstimateResult empty_result(Eigen::Index n) {
+  EstimateResult res;
+  res.normals.setConstant(n, 3, std::numeric_limits<double>::quiet_NaN());
+  res.valid.assign(size_t(n), 0);
+  res.curvature.setConstant(n, std::numeric_limits<double>::quiet_NaN());
+  return res;
+}
+
+EstimateResult estimate_geometry(const Points& points, const EstimateOptions& options,
+                                 const TileOverrides& overrides) {
+  start_threads(options.run.threads);  // before the big allocations
+  EstimateResult res = empty_result(points.rows());
+  const Canonical canon = canonical_points(points, res.warnings);
+  const Points& pts = canon.pts;
+  const RunContext& run = options.run;
+  Progress top(run.progress);
+  if (run.progress) top.stage("kd-tree", 0, 0.02);
+  const Neighbors tree(pts);
+  top.throw_if_cancelled();
+
+  IndexMatrix knn;
+  measure_noise(pts, tree, canon.unit, options, overrides, knn, res);
+  const double spacing = res.spacing;  // normalised units, for the stages below
+  const ScaleChoice choice = choose_sizes(options, pts.rows(), res);
+  const int kdepth = table_depth(options, choice, pts.rows(), res);
+  neighbour_table(tree, kdepth, run, knn);
+
+  const PcaResult pca = pca_normals(pts, knn, PcaOptions{res.k_used}, narrow(run, 0.35, 0.45));
+  Normals out = pca.normals;
+  if (options.method == Method::Mfps) {
+    out = mfps_stage(pts, knn, pca, MfpsInput{canon.rows, choice, kdepth, spacing}, options,
+                     overrides, res);
+    drop_planeless(pts, knn, kdepth, pca.normals, out);
+  }
+  scatter(out, pca.variation, canon.rows, res);
+  res.spacing = spacing * canon.unit;
+  finish_result(res, canon.copies, canon.finite_count);
   if (run.progress) {
     top.stage("done", 1, 1);
     top.throw_if_cancelled();
   }
   return res;
+}
+
+EstimateResult estimate_cloud(const Points& points, const EstimateOptions& options,
+                              const TileOverrides& overrides) {
+  if (options.method == Method::NhNet) return estimate_nhnet(points, options, overrides);
+  return estimate_geometry(points, options, overrides);
+}
+
+}  // namespace detail
+
+EstimateResult estimate_normals(const Points& points, const EstimateOptions& options) {
+  detail::check_options(options);
+  if (detail::wants_tiles(points, options)) return detail::estimate_tiled(points, options);
+  return detail::estimate_cloud(points, options, detail::TileOverrides{});
 }
 
 }  // namespace nhnet

@@ -8,7 +8,7 @@
 //     all of them gives the whole cloud's noise level, spacing and neighbourhood radius;
 //  4. (MFPS, NH-Net) every point's surface variation at the smooth size, tile by tile with a
 //     halo, for the whole cloud's candidate threshold (feature_detection.hpp);
-//  5. estimate_normals() on each tile plus its halo (points of the neighbouring tiles' files
+//  5. the estimator (estimate_cloud) on each tile plus its halo (points of the neighbouring tiles' files
 //     within tile_halo radii of the largest neighbourhood), with the whole cloud's decisions;
 //     the tile's own results go to its result file in input order;
 //  6. read the input again and write the output in the input's order (temporary file +
@@ -28,7 +28,7 @@
 #include "nhnet/geometry/scales.hpp"
 #include "util/parallel.hpp"
 #include "util/stats.hpp"
-#include "pipeline/tiling.hpp"
+#include "pipeline/estimator.hpp"
 
 #include <unistd.h>
 
@@ -442,7 +442,7 @@ StreamResult estimate_stream(const std::string& input, const std::string& output
                              const StreamOptions& options) {
   const EstimateOptions& eo = options.estimate;
   detail::check_options(eo);
-  if (eo.tile_points <= 0) throw InvalidOptions("streaming needs tile points > 0");
+  if (eo.tiles.points <= 0) throw InvalidOptions("streaming needs tile points > 0");
   if (options.orient.mode == OrientMode::Mst)
     throw InvalidOptions("--orient mst needs the whole cloud in memory; with streaming use "
                          "none, keep or viewpoint X Y Z");
@@ -466,7 +466,7 @@ StreamResult estimate_stream(const std::string& input, const std::string& output
   XyzStream in(input);
   Eigen::RowVector3d lo = Eigen::RowVector3d::Constant(kInf), hi = -lo;
   std::vector<std::array<double, 3>> sample;
-  std::mt19937_64 rng(eo.seed);
+  std::mt19937_64 rng(eo.mfps.seed);
   int64_t finite = 0;
   bool fits_float = true;
   if (run.progress) top.stage("reading", 0, 0.05);
@@ -512,7 +512,7 @@ StreamResult estimate_stream(const std::string& input, const std::string& output
   {
     std::vector<int64_t> order(size_t(s.rows()));
     for (size_t i = 0; i < order.size(); ++i) order[i] = int64_t(i);
-    const int64_t parts = (finite + eo.tile_points - 1) / eo.tile_points;
+    const int64_t parts = (finite + eo.tiles.points - 1) / eo.tiles.points;
     plan.build(s, order, 0, int64_t(order.size()), parts, Eigen::RowVector3d::Constant(-kInf),
                Eigen::RowVector3d::Constant(kInf));
   }
@@ -598,10 +598,10 @@ StreamResult estimate_stream(const std::string& input, const std::string& output
   const auto radius = [&](int k) { return sizes.radius(k); };
 
   EstimateOptions o = eo;
-  o.tile_points = 0;
-  o.known_noise_ratio = probe.noise.ratio;
-  o.known_spacing = probe.noise.spacing;  // frame units, as the tiles' coordinates
-  if (eo.method == Method::NhNet) o.loaded_model = model_for(eo);
+  detail::TileOverrides ov;
+  ov.noise_ratio = probe.noise.ratio;
+  ov.spacing = probe.noise.spacing;  // frame units, as the tiles' coordinates
+  if (eo.method == Method::NhNet) o.model.loaded = model_for(eo.model, eo.run.threads);
 
   // 4. The candidate threshold from the whole cloud's surface variations.
   const double span1 = eo.method == Method::Pca ? 0.0 : 0.15;
@@ -612,7 +612,7 @@ StreamResult estimate_stream(const std::string& input, const std::string& output
     int64_t seen = 0;
     for (size_t t = 0; t < ntiles; ++t) {
       if (tiles.count(t) == 0) continue;
-      const TilePoints tp = tiles.load(t, eo.tile_halo * radius(choice.k_smooth));
+      const TilePoints tp = tiles.load(t, eo.tiles.halo * radius(choice.k_smooth));
       std::vector<std::string> ignored;
       const detail::Canonical canon = detail::canonical_points(tp.pts, ignored);
       const int k = int(std::min<Eigen::Index>(choice.k_smooth, canon.pts.rows()));
@@ -627,13 +627,13 @@ StreamResult estimate_stream(const std::string& input, const std::string& output
       top.report(double(t + 1) / double(ntiles));
       top.throw_if_cancelled();
     }
-    o.known_variation_threshold =
+    ov.variation_threshold =
         detect_feature_candidates(Eigen::Map<const Eigen::VectorXd>(variation.data(), Eigen::Index(variation.size())))
             .absolute_threshold;
   }
 
   // 5. Each tile with its halo; own results to the tile's result file (input order).
-  const double halo = eo.tile_halo * radius(sizes.kneed);
+  const double halo = eo.tiles.halo * radius(sizes.kneed);
   const double begin = 0.15 + span1, span = (0.95 - begin) / double(ntiles);
   std::set<std::string> seen_warnings(res.warnings.begin(), res.warnings.end());
   int64_t degenerate = 0;
@@ -642,7 +642,7 @@ StreamResult estimate_stream(const std::string& input, const std::string& output
     if (tiles.count(t) == 0) continue;
     const TilePoints tp = tiles.load(t, halo);
     o.run = detail::narrow(run, begin + span * double(t), begin + span * double(t + 1));
-    const EstimateResult tr = estimate_normals(tp.pts, o);
+    const EstimateResult tr = detail::estimate_cloud(tp.pts, o, ov);
     Appender out(tiles.result_file(t));
     for (size_t r = 0; r < tp.own; ++r) {
       float n[3];

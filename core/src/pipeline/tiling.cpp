@@ -1,16 +1,16 @@
 // Spatial tiling of the estimator (not a paper stage; issue 10: bounded memory for any cloud).
-// A cloud with more than EstimateOptions::tile_points finite points is cut into axis-aligned
+// A cloud with more than TileOptions::points finite points is cut into axis-aligned
 // tiles by recursive splits of the longest axis at the point-count quantile (kd-tree style, so
 // every tile holds about tile_points points whatever the density). Each tile runs the whole
 // pipeline (PCA, MFPS, NH-Net) on its own points plus a halo: every point within
-// tile_halo x r_K of the tile's box, r_K the radius of the largest neighbourhood the stages use.
+// TileOptions::halo x r_K of the tile's box, r_K the radius of the largest neighbourhood the stages use.
 // The noise level and the spacing, hence every neighbourhood size, are measured once on the whole
 // cloud (its noise probe, exactly the untiled run's) and handed to each tile, and MFPS's random
 // draws depend only on a patch's own members, so a point whose neighbourhoods (and theirs) lie in
 // its tile and halo gets the untiled normal up to floating-point rounding (each tile is
 // re-centred). Peak memory: the canonical points and the result (~90 B/point) plus one tile's
 // working set, instead of the whole cloud's (~1.4 kB/point for MFPS).
-#include "pipeline/tiling.hpp"
+#include "pipeline/estimator.hpp"
 
 #include "nhnet/errors.hpp"
 #include "nhnet/geometry/feature_detection.hpp"
@@ -27,10 +27,10 @@
 namespace nhnet::detail {
 
 bool wants_tiles(const Points& points, const EstimateOptions& options) {
-  if (options.tile_points <= 0 || points.rows() <= options.tile_points) return false;
+  if (options.tiles.points <= 0 || points.rows() <= options.tiles.points) return false;
   int64_t finite = 0;
   for (Eigen::Index i = 0; i < points.rows(); ++i) finite += points.row(i).allFinite() ? 1 : 0;
-  return finite > options.tile_points;
+  return finite > options.tiles.points;
 }
 
 RangeCut split_range(const Points& pts, std::vector<int64_t>& order, int64_t begin, int64_t end,
@@ -60,7 +60,7 @@ TileSizes tile_sizes(const Probe& probe, const EstimateOptions& options, int64_t
   TileSizes t;
   t.choice = choose_scales(probe.noise.ratio, Eigen::Index(m));
   if (options.k > 0) t.choice.k_smooth = options.k;
-  if (!options.scales.empty()) t.choice.scales = options.scales;
+  if (!options.mfps.scales.empty()) t.choice.scales = options.mfps.scales;
   t.kneed = t.choice.k_smooth;
   if (options.method != Method::Pca)
     t.kneed = std::max(t.kneed, *std::max_element(t.choice.scales.begin(), t.choice.scales.end()));
@@ -119,6 +119,76 @@ Points gather(const Points& pts, const std::vector<int64_t>& rows) {
   return tile;
 }
 
+/// The tiles of the canonical points: kd-tree leaves of about tiles.points points each, the
+/// leaf that owns every point, and each leaf's bounding box.
+struct Tiles {
+  std::vector<Leaf> leaves;
+  std::vector<int32_t> owner;
+  std::vector<Box> boxes;
+};
+
+Tiles cut_tiles(const Points& pts, int64_t tile_points) {
+  const Eigen::Index m = pts.rows();
+  std::vector<int64_t> order(static_cast<size_t>(m));
+  for (Eigen::Index i = 0; i < m; ++i) order[size_t(i)] = i;
+  const int64_t parts = (int64_t(m) + tile_points - 1) / tile_points;
+  Tiles t;
+  split(pts, order, 0, int64_t(m), parts, t.leaves);
+  t.owner.assign(static_cast<size_t>(m), -1);
+  for (size_t l = 0; l < t.leaves.size(); ++l)
+    for (int64_t i = t.leaves[l].begin; i < t.leaves[l].end; ++i)
+      t.owner[size_t(order[size_t(i)])] = int32_t(l);
+  t.boxes = leaf_boxes(pts, t.owner, t.leaves.size());
+  return t;
+}
+
+/// Pass 1 (MFPS, NH-Net): the candidate threshold is chosen from the histogram of the whole
+/// cloud's surface variations (feature_detection.hpp), so every point's variation is computed
+/// first, tile by tile (PCA at the smooth size), and the whole cloud's threshold goes to the tiles.
+double variation_threshold(const Points& pts, const Tiles& tiles, const TileSizes& sizes,
+                           double halo_factor, const RunContext& run) {
+  const Eigen::Index m = pts.rows();
+  Eigen::VectorXd variation = Eigen::VectorXd::Constant(m, std::numeric_limits<double>::quiet_NaN());
+  const int k = int(std::min<Eigen::Index>(sizes.choice.k_smooth, m));
+  const size_t count = tiles.leaves.size();
+  for (size_t t = 0; t < count; ++t) {
+    const std::vector<int64_t> rows = tile_rows(pts, tiles.boxes[t], halo_factor * sizes.radius(k));
+    const Points tile = gather(pts, rows);
+    const RunContext r = narrow(run, double(t) / double(count), double(t + 1) / double(count));
+    IndexMatrix knn;
+    Neighbors(tile).knn_all(k, knn, nullptr, narrow(r, 0, 0.7));
+    const PcaResult pca = pca_normals(tile, knn, PcaOptions{k}, narrow(r, 0.7, 1));
+    for (size_t i = 0; i < rows.size(); ++i)
+      if (tiles.owner[size_t(rows[i])] == int32_t(t)) variation[rows[i]] = pca.variation[Eigen::Index(i)];
+  }
+  return detect_feature_candidates(variation).absolute_threshold;
+}
+
+/// The owned rows of one tile's result into the whole cloud's; the first tile's sizes, and the
+/// tile's warnings not seen yet (degenerate points are counted again for the whole cloud).
+void merge_tile(const EstimateResult& tr, const std::vector<int64_t>& rows, int32_t t,
+                const Tiles& tiles, const Canonical& canon, std::set<std::string>& seen,
+                EstimateResult& res) {
+  for (size_t r = 0; r < rows.size(); ++r) {
+    const int64_t i = rows[r];
+    if (tiles.owner[size_t(i)] != t) continue;
+    const int64_t row = canon.rows[size_t(i)];
+    res.normals.row(row) = tr.normals.row(Eigen::Index(r));
+    res.valid[size_t(row)] = tr.valid[r];
+    res.curvature[row] = tr.curvature[Eigen::Index(r)];
+    if (!tr.candidate.empty()) res.candidate[size_t(row)] = tr.candidate[r];
+  }
+  if (t == 0) {
+    res.k_used = tr.k_used;
+    res.scales_used = tr.scales_used;
+    res.device_used = tr.device_used;
+    res.descriptor_k = tr.descriptor_k;
+  }
+  for (const std::string& w : tr.warnings)
+    if (w.find("degenerate neighbourhood") == std::string::npos && seen.insert(w).second)
+      res.warnings.push_back(w);
+}
+
 }  // namespace
 
 EstimateResult estimate_tiled(const Points& points, const EstimateOptions& options) {
@@ -126,102 +196,43 @@ EstimateResult estimate_tiled(const Points& points, const EstimateOptions& optio
   const RunContext& run = options.run;
   Progress top(run.progress);
   if (run.progress) top.stage("tiling", 0, 0.01);
-
-  EstimateResult res;
-  const Eigen::Index n = points.rows();
-  const double nan = std::numeric_limits<double>::quiet_NaN();
-  res.normals.setConstant(n, 3, nan);
-  res.valid.assign(size_t(n), 0);
-  res.curvature.setConstant(n, nan);
-  if (options.method != Method::Pca) res.candidate.assign(size_t(n), 0);
-
-  Canonical canon = canonical_points(points, res.warnings);
+  EstimateResult res = empty_result(points.rows());
+  if (options.method != Method::Pca) res.candidate.assign(size_t(points.rows()), 0);
+  const Canonical canon = canonical_points(points, res.warnings);
   const Points& pts = canon.pts;
-  const Eigen::Index m = pts.rows();
 
   // The whole cloud's noise probe: the untiled run's (same canonical points, same frame).
   const bool need_probe =
-      options.k == 0 || (options.method != Method::Pca && options.scales.empty());
-  Probe probe;
-  {
-    const Neighbors tree(pts);
-    probe = probe_noise(pts, tree, narrow(run, 0.01, 0.04), nullptr);
-  }
+      options.k == 0 || (options.method != Method::Pca && options.mfps.scales.empty());
+  const Probe probe = probe_noise(pts, Neighbors(pts), narrow(run, 0.01, 0.04), nullptr);
   top.throw_if_cancelled();
-  const TileSizes sizes = tile_sizes(probe, options, int64_t(m));
-  const ScaleChoice& choice = sizes.choice;
-  const auto radius = [&](int k) { return sizes.radius(k); };
-  const double halo = options.tile_halo * radius(sizes.kneed);
-
-  std::vector<int64_t> order(static_cast<size_t>(m));
-  for (Eigen::Index i = 0; i < m; ++i) order[size_t(i)] = i;
-  const int64_t parts = (int64_t(m) + options.tile_points - 1) / options.tile_points;
-  std::vector<Leaf> leaves;
-  split(pts, order, 0, int64_t(m), parts, leaves);
-  std::vector<int32_t> owner(static_cast<size_t>(m), -1);
-  for (size_t t = 0; t < leaves.size(); ++t)
-    for (int64_t i = leaves[t].begin; i < leaves[t].end; ++i) owner[size_t(order[size_t(i)])] = int32_t(t);
-  std::vector<int64_t>().swap(order);
-  const std::vector<Box> boxes = leaf_boxes(pts, owner, leaves.size());
+  const TileSizes sizes = tile_sizes(probe, options, int64_t(pts.rows()));
+  const double halo = options.tiles.halo * sizes.radius(sizes.kneed);
+  const Tiles tiles = cut_tiles(pts, options.tiles.points);
 
   EstimateOptions o = options;
-  o.tile_points = 0;
+  TileOverrides ov;
   if (need_probe) {
-    o.known_noise_ratio = probe.noise.ratio;
-    o.known_spacing = probe.noise.spacing;  // tiles are given normalised coordinates
+    ov.noise_ratio = probe.noise.ratio;
+    ov.spacing = probe.noise.spacing;  // tiles are given normalised coordinates
   }
-  if (options.method == Method::NhNet) o.loaded_model = model_for(options);  // once for all tiles
-
-  // Pass 1 (MFPS, NH-Net): the candidate threshold is chosen from the histogram of the whole
-  // cloud's surface variations (feature_detection.hpp), so every point's variation is computed
-  // first, tile by tile (PCA at the smooth size), and the whole cloud's threshold goes to the tiles.
+  if (options.method == Method::NhNet)  // loaded once for all tiles
+    o.model.loaded = model_for(options.model, options.run.threads);
   const double span1 = options.method == Method::Pca ? 0.0 : 0.15;
-  if (options.method != Method::Pca) {
-    Eigen::VectorXd variation = Eigen::VectorXd::Constant(m, nan);
-    const int k = int(std::min<Eigen::Index>(choice.k_smooth, m));
-    for (size_t t = 0; t < leaves.size(); ++t) {
-      const std::vector<int64_t> rows = tile_rows(pts, boxes[t], options.tile_halo * radius(k));
-      const Points tile = gather(pts, rows);
-      const RunContext r = narrow(run, 0.04 + span1 * double(t) / double(leaves.size()),
-                                  0.04 + span1 * double(t + 1) / double(leaves.size()));
-      IndexMatrix knn;
-      Neighbors(tile).knn_all(k, knn, nullptr, narrow(r, 0, 0.7));
-      const PcaResult pca = pca_normals(tile, knn, PcaOptions{k}, narrow(r, 0.7, 1));
-      for (size_t i = 0; i < rows.size(); ++i)
-        if (owner[size_t(rows[i])] == int32_t(t)) variation[rows[i]] = pca.variation[Eigen::Index(i)];
-    }
-    o.known_variation_threshold = detect_feature_candidates(variation).absolute_threshold;
-  }
+  if (options.method != Method::Pca)
+    ov.variation_threshold =
+        variation_threshold(pts, tiles, sizes, options.tiles.halo, narrow(run, 0.04, 0.04 + span1));
 
   std::set<std::string> seen(res.warnings.begin(), res.warnings.end());
-  const double begin = 0.04 + span1, span = (0.99 - begin) / double(leaves.size());
-  for (size_t t = 0; t < leaves.size(); ++t) {
+  const double begin = 0.04 + span1, span = (0.99 - begin) / double(tiles.leaves.size());
+  for (size_t t = 0; t < tiles.leaves.size(); ++t) {
     // The tile: its own points and every point within `halo` of their bounding box, in
     // canonical order.
-    const std::vector<int64_t> rows = tile_rows(pts, boxes[t], halo);
-    const Points tile = gather(pts, rows);
+    const std::vector<int64_t> rows = tile_rows(pts, tiles.boxes[t], halo);
     o.run = narrow(run, begin + span * double(t), begin + span * double(t + 1));
-    EstimateResult tr = estimate_normals(tile, o);
-    for (size_t r = 0; r < rows.size(); ++r) {
-      const int64_t i = rows[r];
-      if (owner[size_t(i)] != int32_t(t)) continue;
-      const int64_t row = canon.rows[size_t(i)];
-      res.normals.row(row) = tr.normals.row(Eigen::Index(r));
-      res.valid[size_t(row)] = tr.valid[r];
-      res.curvature[row] = tr.curvature[Eigen::Index(r)];
-      if (!tr.candidate.empty()) res.candidate[size_t(row)] = tr.candidate[r];
-    }
-    if (t == 0) {
-      res.k_used = tr.k_used;
-      res.scales_used = tr.scales_used;
-      res.device_used = tr.device_used;
-      res.descriptor_k = tr.descriptor_k;
-    }
-    for (const std::string& w : tr.warnings)  // counted again below for the whole cloud
-      if (w.find("degenerate neighbourhood") == std::string::npos && seen.insert(w).second)
-        res.warnings.push_back(w);
+    merge_tile(estimate_cloud(gather(pts, rows), o, ov), rows, int32_t(t), tiles, canon, seen, res);
   }
-  res.tiles = int(leaves.size());
+  res.tiles = int(tiles.leaves.size());
   res.noise_ratio = need_probe ? probe.noise.ratio : 0;
   res.spacing = need_probe ? probe.noise.spacing * canon.unit : 0;
   finish_result(res, canon.copies, canon.finite_count);

@@ -33,31 +33,35 @@ namespace nhnet {
 constexpr int kMfpsBlendFeatures = 12;
 constexpr int kBlendNeighbours = 16;
 
+/// The defaults below are nhnet's (measured on the training split, tools/README.md); paper()
+/// gives the authors' values. EstimateOptions::mfps holds these for the whole pipeline, so every
+/// front end gets its MFPS defaults from here.
 struct MfpsOptions {
-  /// Patch sizes K (self included), ascending. Paper: {50, 100, 150}.
-  std::vector<int> scales{50, 100, 150};
+  /// Patch sizes K (self included), ascending. Empty = chosen from the cloud's noise level by the
+  /// pipeline (scales.hpp); mfps_normals() itself needs them given. Paper: {50, 100, 150}.
+  std::vector<int> scales;
   /// alpha of eta(K) (paper: 0.9).
   double alpha = 0.9;
   /// Random 4-point planes per patch (authors: 150).
-  int samples = 150;
+  int samples = 40;
   /// Patch members each sample is scored on before the full re-scoring (0 = all members, i.e.
   /// the authors' exhaustive scoring).
-  int score_subset = 0;
-  /// Best samples re-scored on the whole patch.
-  int rescore = 1;
+  int score_subset = 48;
+  /// Best samples re-scored on the whole patch (authors: 1).
+  int rescore = 3;
   /// IRLS refinement steps of the winning plane (0 = authors' behaviour).
-  int refine_iterations = 0;
+  int refine_iterations = 3;
   /// Width of the point term exp(-r_i^2 / (f sigma_i)^2) of Eq. 4, as a multiple f of sigma_i
   /// (paper: 1). A wider term stops a point that noise pushed off its own face from preferring
   /// a plane bent across the edge.
-  double point_sigma_factor = 1;
+  double point_sigma_factor = 4;
   /// Two-face posterior (0 = the paper's argmax). With beta > 0, the winner's score D1 and the
   /// best score D2 among patches whose plane differs from the winner's by more than
   /// `rival_angle_deg` give P(rival) = 1 / (1 + (D1/D2)^beta); the normal is the winner's rotated
   /// towards the rival's by P(rival) times the angle between them, which minimises the expected
   /// squared angle error where the two faces are about equally likely (there the argmax is a
   /// coin flip between 0 and the dihedral angle, the worst case for RMS).
-  double posterior_beta = 0;
+  double posterior_beta = 12;
   /// Planes closer than this to the winner's (degrees) are the same face, not a rival.
   double rival_angle_deg = 20;
   /// Edge-geometry posterior (0 = off): the winner's and the rival's planes meet in an edge line;
@@ -65,18 +69,34 @@ struct MfpsOptions {
   /// exp(-r^2 / 2 s^2) Phi(t / s) (r: distance to the plane, t: signed distance along the face
   /// from the edge, s = this factor x sigma_i), i.e. the Gaussian noise model integrated over the
   /// half-plane; it multiplies the score prior (D2/D1)^beta.
-  double edge_sigma_factor = 0;
+  double edge_sigma_factor = 1;
   /// PCA blend (not the paper's; false = off): each candidate with a rival is rotated towards
   /// its PCA normal (`base_normals`) by a weight w, logistic in a quadratic form of the features
   /// above (each feature and every pairwise product; the 78 coefficients in mfps.cpp were fitted
   /// on the training split with tools/fit_mfps_blend.py). Within about one noise sigma of an
   /// edge the face a point came from cannot be told, the large-k PCA plane (close to the
   /// bisector) is then the lower-RMS answer; w learns where.
-  bool pca_blend = false;
+  bool pca_blend = true;
   /// Keep the blend features and the normals before the blend in the result (for fitting).
   bool record_blend_features = false;
   /// Seed of the random samples; results do not depend on the thread count.
   uint64_t seed = 1;
+
+  /// The authors' settings: scales {50, 100, 150}, 150 samples scored exhaustively, no
+  /// refinement, the argmax of Eq. 4 with sigma_i's own width, no posterior, no blend.
+  static MfpsOptions paper() {
+    MfpsOptions o;
+    o.scales = {50, 100, 150};
+    o.samples = 150;
+    o.score_subset = 0;
+    o.rescore = 1;
+    o.refine_iterations = 0;
+    o.point_sigma_factor = 1;
+    o.posterior_beta = 0;
+    o.edge_sigma_factor = 0;
+    o.pca_blend = false;
+    return o;
+  }
 };
 
 struct MfpsResult {

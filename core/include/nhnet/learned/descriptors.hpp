@@ -4,12 +4,12 @@
 // the paper's values): [f_1x f_1y f_1z ... f_Fx f_Fy f_Fz | map_1[0][0] ... map_F[m-1][m-1]].
 // The descriptor's neighbourhood follows the noise-driven scale rule of MFPS: k = ceil(1.5 Kmin)
 // with Kmin the smallest MFPS scale chosen for the cloud (authors: 1.5 * 50 = 75), so patches are
-// comparable at every noise level. The same call feeds training (Python bindings) and inference.
+// comparable at every noise level. The same call feeds training (Python bindings) and inference;
+// the chain that runs the geometry stage first is pipeline/describe.hpp.
 #pragma once
 
 #include "nhnet/learned/bilateral_filter.hpp"
 #include "nhnet/learned/canonical_frame.hpp"
-#include "nhnet/pipeline/estimate.hpp"
 #include "nhnet/learned/height_map.hpp"
 #include "nhnet/progress.hpp"
 #include "nhnet/types.hpp"
@@ -33,26 +33,10 @@ struct DescriptorOptions {
   HeightMapOptions map;
   /// Descriptor neighbourhood = ceil(factor * smallest MFPS scale). Authors' code: 1.5.
   double neighborhood_factor = 1.5;
-  /// Geometry stage (MFPS; `method` and `mfps_pca_blend` are ignored) and threads / progress.
-  EstimateOptions estimate;
-  /// MFPS PCA blend of the geometry stage. Off: the shipped model (v6) was trained on MFPS
-  /// normals without it, and training and inference both come through here, so they agree.
-  bool mfps_pca_blend = false;
 };
 
 /// Number of floats per point for these options.
 int descriptor_size(const DescriptorOptions& options = {});
-
-struct Descriptors {
-  /// N x D descriptors (NaN rows where valid == 0).
-  DescriptorMatrix features;
-  /// N x 9 canonical rotations (world -> frame), row-major 3 x 3.
-  Rotations rotations;
-  /// The geometry stage's result: MFPS normals, valid flags, spacing, scales.
-  EstimateResult geometry;
-  /// Descriptor neighbourhood size that was used.
-  int k_used = 0;
-};
 
 /// Descriptors of points that already have normals: `points` and `normals` (N x 3, all rows
 /// finite), `knn` the neighbour table (M x K, K >= k) of points `first` .. `first` + M - 1, so
@@ -62,24 +46,8 @@ void compute_descriptors(const Points& points, const Normals& normals, const Ind
                          Rotations& rotations, const RunContext& run = {},
                          Eigen::Index first = 0);
 
-/// What the descriptors of a cloud need, computed once: the geometry stage's result (MFPS
-/// normals), the input rows that have a normal, those points, normals and their k-NN table.
-struct DescriptorInput {
-  EstimateResult geometry;
-  std::vector<Eigen::Index> rows;
-  Points points;
-  Normals normals;
-  IndexMatrix knn;
-  int k = 0;
-};
-
-/// Runs the geometry stage (estimate_normals, MFPS) and builds the neighbour table of the points
-/// with a normal (k = ceil(factor * smallest MFPS scale)). Fewer than spacing_k + 1 such points
-/// leave `rows` empty (with a warning).
-DescriptorInput prepare_descriptors(const Points& points, const DescriptorOptions& options);
-
-/// The whole chain for a cloud: MFPS normals (estimate_normals), then the descriptors of every
-/// point with a valid normal. Throws like estimate_normals.
-Descriptors describe(const Points& points, const DescriptorOptions& options = {});
+/// The descriptor neighbourhood size for a cloud of m points whose smallest MFPS scale is
+/// `kmin`: ceil(neighborhood_factor x kmin), at least filter.spacing_k + 1, at most m.
+int descriptor_k(int kmin, const DescriptorOptions& options, Eigen::Index m);
 
 }  // namespace nhnet

@@ -1,11 +1,10 @@
 // NH-Net inference (paper Sec. 5.2): a trained TorchScript model (training/, models/) applied to
-// the descriptors of descriptors.hpp. libtorch stays inside core/src/torch/nhnet_model.cpp
+// the descriptors of descriptors.hpp. libtorch stays inside core/src/learned/model_torch.cpp
 // (PImpl); a core built without libtorch reports that through nhnet_available() and throws
 // InvalidOptions from the calls below.
 #pragma once
 
 #include "nhnet/learned/descriptors.hpp"
-#include "nhnet/pipeline/estimate.hpp"
 #include "nhnet/progress.hpp"
 
 #include <memory>
@@ -19,6 +18,21 @@ bool nhnet_available();
 /// The shipped model's path: $NHNET_MODEL if set, else the installed copy
 /// (<prefix>/share/nhnet/models/nhnet.pt) if it exists, else the source tree's models/nhnet.pt.
 std::string default_model_path();
+
+class NhNetModel;
+
+/// Which model the learned stage runs, where, and how many points at a time.
+struct ModelOptions {
+  /// Model file (TorchScript from nhnet-export); empty = the shipped model (default_model_path()).
+  std::string path;
+  /// Device: "auto" (CUDA if available, else CPU), "cpu" or "cuda".
+  std::string device = "auto";
+  /// An already loaded model; when set, `path` and `device` are not used. Lets a front end check
+  /// the model before reading any input and reuse it across files.
+  std::shared_ptr<const NhNetModel> loaded;
+  /// Block size: points whose descriptors are computed and run through the model at once.
+  int batch = 4096;
+};
 
 /// A loaded model. Loading checks the metadata the exporter wrote (descriptor version, size,
 /// sigmas, patch size, neighbourhood factor, height normalisation) against this core's
@@ -48,12 +62,8 @@ class NhNetModel {
   std::unique_ptr<Impl> impl_;
 };
 
-/// options.loaded_model, or else the model options.model (empty = default_model_path()) loaded
-/// for options.device and options.run.threads.
-std::shared_ptr<const NhNetModel> model_for(const EstimateOptions& options);
-
-/// The whole NH-Net pipeline: MFPS, descriptors, the model (options.model, empty = the default
-/// model), world normals = R^T * output. Used by estimate_normals for Method::NhNet.
-EstimateResult estimate_nhnet(const Points& points, const EstimateOptions& options);
+/// options.loaded, or else the model options.path (empty = default_model_path()) loaded for
+/// options.device with `threads` intra-op threads (0 = all cores).
+std::shared_ptr<const NhNetModel> model_for(const ModelOptions& options, int threads = 0);
 
 }  // namespace nhnet

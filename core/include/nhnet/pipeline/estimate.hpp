@@ -3,6 +3,8 @@
 // near sharp features, with neighbourhood sizes chosen from the cloud's own noise level.
 #pragma once
 
+#include "nhnet/geometry/mfps.hpp"
+#include "nhnet/learned/nhnet_model.hpp"
 #include "nhnet/progress.hpp"
 #include "nhnet/types.hpp"
 
@@ -12,8 +14,6 @@
 #include <vector>
 
 namespace nhnet {
-
-class NhNetModel;
 
 enum class Method {
   Pca,   ///< plain PCA over the k nearest neighbours
@@ -25,60 +25,36 @@ enum class Method {
 Method method_from_string(const std::string& name);
 const char* to_string(Method method);
 
+/// Spatial tiles (not in the paper; tiling.cpp): a cloud with more finite points than `points`
+/// is processed in tiles of at most that many points, each with a halo of the points around it,
+/// so memory is bounded by one tile whatever the cloud's size; results equal the untiled run's up
+/// to rounding (tested).
+struct TileOptions {
+  /// Most points per tile; 0 = never tile.
+  int64_t points = 1000000;
+  /// Halo width around each tile, in radii of the largest neighbourhood the stages use (MFPS
+  /// patches reach two radii, NH-Net's descriptors of MFPS normals three; 4 leaves a margin).
+  double halo = 4;
+};
+
+/// Everything estimate_normals() takes: the method and its neighbourhood size, then one options
+/// struct per stage, each with its defaults in its own header. Every front end (CLI, Python, PCL
+/// class, plugins) starts from these defaults.
 struct EstimateOptions {
   /// Which estimator to run.
   Method method = Method::Mfps;
   /// PCA neighbourhood size (self included) for --method pca and for MFPS smooth points;
   /// 0 = chosen from the estimated noise level (see scales.hpp).
   int k = 0;
-  /// MFPS patch sizes; empty = chosen from the estimated noise level. Paper: {50, 100, 150}.
-  std::vector<int> scales;
-  /// Seed of the random plane samples of MFPS (results are deterministic for a given seed and
-  /// independent of the thread count).
-  uint64_t seed = 1;
-  /// MFPS plane search (advanced; see mfps.hpp): random 4-point planes per patch, members each
-  /// is scored on (0 = all), best samples re-scored on the whole patch, IRLS refinement steps.
-  int mfps_samples = 40;
-  int mfps_score_subset = 48;
-  int mfps_rescore = 3;
-  int mfps_refine_iterations = 3;
-  /// MFPS selection (see mfps.hpp): width factor of the point term of Eq. 4, the two-face
-  /// posterior exponent (0 = the paper's argmax) and the edge-geometry posterior's noise width
-  /// (0 = off). Defaults measured on the training split (tools/README.md).
-  double mfps_point_sigma_factor = 4;
-  double mfps_posterior_beta = 12;
-  double mfps_edge_sigma_factor = 1;
-  /// MFPS PCA blend (see mfps.hpp): candidates move towards their PCA normal where the
-  /// selection is likely wrong. NH-Net's descriptors set their own (DescriptorOptions).
-  bool mfps_pca_blend = true;
-  /// Diagnostics for fitting the blend: fill EstimateResult::mfps_blend_*.
-  bool mfps_record_blend = false;
-  /// NH-Net model file (TorchScript from nhnet-export); empty = the shipped model
-  /// (default_model_path() in nhnet_model.hpp).
-  std::string model;
-  /// NH-Net device: "auto" (CUDA if available, else CPU), "cpu" or "cuda".
-  std::string device = "auto";
-  /// NH-Net: an already loaded model (nhnet_model.hpp); when set, `model` and `device` are not
-  /// used. Lets a front end check the model before reading any input and reuse it across files.
-  std::shared_ptr<const NhNetModel> loaded_model;
-  /// NH-Net block size: points whose descriptors are computed and run through the model at once.
-  int nhnet_batch = 4096;
-  /// Spatial tiles (not in the paper; tiling.cpp): a cloud with more finite points than this is
-  /// processed in tiles of at most this many points, each with a halo of the points around it,
-  /// so memory is bounded by one tile whatever the cloud's size; results equal the untiled
-  /// run's up to rounding (tested). 0 = never tile.
-  int64_t tile_points = 1000000;
-  /// Halo width around each tile, in radii of the largest neighbourhood the stages use (MFPS
-  /// patches reach two radii, NH-Net's descriptors of MFPS normals three; 4 leaves a margin).
-  double tile_halo = 4;
-  /// Advanced, set by the tiling for each tile: noise ratio and point spacing (input units)
-  /// measured on the whole cloud. When known_spacing > 0 the noise probe is skipped and these
-  /// choose the neighbourhood sizes, so every tile uses the whole cloud's sizes.
-  double known_noise_ratio = 0;
-  double known_spacing = 0;
-  /// Advanced, set by the tiling: the whole cloud's candidate threshold on the surface variation
-  /// (FeatureDetection::absolute_threshold); < 0 = chosen from this cloud's histogram.
-  double known_variation_threshold = -1;
+  /// MFPS (mfps.hpp): patch sizes (empty = chosen from the noise level), plane search,
+  /// selection, PCA blend and the seed of its random plane samples (results are deterministic
+  /// for a given seed and independent of the thread count). NH-Net's descriptors set their own
+  /// blend (DescribeOptions, describe.hpp).
+  MfpsOptions mfps;
+  /// NH-Net (nhnet_model.hpp): model file, device, an already loaded model, block size.
+  ModelOptions model;
+  /// Spatial tiles (TileOptions above).
+  TileOptions tiles;
   /// Threads (0 = all cores) and progress/cancel callback.
   RunContext run;
 };
@@ -107,7 +83,7 @@ struct EstimateResult {
   int k_used = 0;
   /// MFPS patch sizes that were used (empty for PCA).
   std::vector<int> scales_used;
-  /// With mfps_record_blend: input rows of the candidates that have blend features, the
+  /// With mfps.record_blend_features: input rows of the candidates that have blend features, the
   /// features (rows x kMfpsBlendFeatures, mfps.hpp) and those rows' normals before the blend
   /// (rows x 3).
   std::vector<int64_t> mfps_blend_rows;

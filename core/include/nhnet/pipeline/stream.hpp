@@ -3,7 +3,7 @@
 // one tile's working set whatever the cloud's size; the intermediate tiles live in temporary
 // files on disk. The tiles and the decisions taken once for the whole cloud (noise level,
 // neighbourhood sizes, MFPS's candidate threshold) are those of the in-memory tiling
-// (estimate.hpp, tile_points), so the normals equal the in-memory run's up to the noise probe's
+// (estimate.hpp, TileOptions), so the normals equal the in-memory run's up to the noise probe's
 // sampling (tested).
 #pragma once
 
@@ -17,7 +17,7 @@
 namespace nhnet {
 
 struct StreamOptions {
-  /// The estimator and its options; `estimate.tile_points` (> 0) is the points per tile.
+  /// The estimator and its options; `estimate.tiles.points` (> 0) is the points per tile.
   EstimateOptions estimate;
   /// Orientation, applied point by point while the output is written: None, Keep (the input's
   /// normals, XYZ columns 4-6; None with a warning when the input has none) or Viewpoint. Mst
@@ -62,7 +62,7 @@ struct StreamResult {
 /// normals tile by tile and writes `output` (.ply, or .xyz / .xyzn / .txt: x y z nx ny nz) in
 /// the input's point order, through a temporary file renamed at the end; failed points get NaN
 /// normals. `output` must not be `input`. Throws InputError (unreadable / malformed input, naming the file and line),
-/// InvalidOptions (a PLY / PCD input, Mst orientation, tile_points <= 0, an unsupported output
+/// InvalidOptions (a PLY / PCD input, Mst orientation, tiles.points <= 0, an unsupported output
 /// extension), OutputError, Cancelled.
 StreamResult estimate_stream(const std::string& input, const std::string& output,
                              const StreamOptions& options);

@@ -65,13 +65,13 @@ class NHNetNormalEstimation : public ::pcl::PCLBase<PointInT> {
   void setKSearch(int k) { options_.k = k; }
   int getKSearch() const { return options_.k; }
   /// MFPS patch sizes (each >= 4), e.g. {50, 100, 150}; empty = chosen from the noise level.
-  void setScales(const std::vector<int>& scales) { options_.scales = scales; }
-  const std::vector<int>& getScales() const { return options_.scales; }
+  void setScales(const std::vector<int>& scales) { options_.mfps.scales = scales; }
+  const std::vector<int>& getScales() const { return options_.mfps.scales; }
   /// nhnet::Method::Mfps (default) or nhnet::Method::Pca.
   void setMethod(Method method) { options_.method = method; }
   Method getMethod() const { return options_.method; }
   /// Seed of MFPS's random plane samples (deterministic results for a seed).
-  void setSeed(uint64_t seed) { options_.seed = seed; }
+  void setSeed(uint64_t seed) { options_.mfps.seed = seed; }
   /// Every other option of the core (MFPS plane search, progress/cancel callback, ...).
   void setEstimateOptions(const EstimateOptions& options) { options_ = options; }
   const EstimateOptions& getEstimateOptions() const { return options_; }

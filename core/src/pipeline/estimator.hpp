@@ -1,7 +1,11 @@
-// Internal: the helpers the estimator (estimate.cpp) and the spatial tiling (tiling.cpp) share:
-// canonical point order, the normalised frame, the noise probe, and the tiled run itself.
+// Internal API of the estimator, shared by the pipeline's files: estimate.cpp (the front door and
+// the geometry stage), refine.cpp (NH-Net), describe.cpp, tiling.cpp and stream.cpp (the two
+// tilings). Canonical point order, the normalised frame, the noise probe, the decisions a tiling
+// takes once for the whole cloud, and the stage functions every path calls (nothing re-enters
+// estimate_normals).
 #pragma once
 
+#include "nhnet/pipeline/describe.hpp"
 #include "nhnet/pipeline/estimate.hpp"
 #include "nhnet/neighbors/neighbors.hpp"
 #include "nhnet/geometry/scales.hpp"
@@ -11,6 +15,40 @@
 #include <vector>
 
 namespace nhnet::detail {
+
+/// What a tiling measured once on the whole cloud and hands every tile, so that each tile uses
+/// the whole cloud's sizes and threshold (not user options).
+struct TileOverrides {
+  /// Noise ratio and point spacing of the whole cloud (spacing in the tile's coordinates). When
+  /// spacing > 0 the noise probe is skipped and these choose the neighbourhood sizes.
+  double noise_ratio = 0;
+  double spacing = 0;
+  /// MFPS's candidate threshold on the surface variation (FeatureDetection::absolute_threshold);
+  /// < 0 = chosen from this cloud's histogram.
+  double variation_threshold = -1;
+};
+
+/// A result for n points with NaN normals and curvatures and nothing valid yet.
+EstimateResult empty_result(Eigen::Index n);
+
+/// One cloud (or one tile) through the stages its method needs, untiled: the geometry stage, then
+/// NH-Net for Method::NhNet. Options are already checked.
+EstimateResult estimate_cloud(const Points& points, const EstimateOptions& options,
+                              const TileOverrides& overrides);
+
+/// The geometry stage (paper Sec. 4): PCA everywhere, MFPS near sharp features for Method::Mfps
+/// (any other method gets PCA normals only when it is Pca; NhNet's geometry is run as Mfps).
+EstimateResult estimate_geometry(const Points& points, const EstimateOptions& options,
+                                 const TileOverrides& overrides);
+
+/// NH-Net on top of the geometry stage (paper Sec. 5, refine.cpp).
+EstimateResult estimate_nhnet(const Points& points, const EstimateOptions& options,
+                              const TileOverrides& overrides);
+
+/// The descriptor input of a cloud whose geometry stage ran (describe.cpp): the rows with a
+/// normal, their points, normals and k-NN table at the descriptor's size.
+DescriptorInput descriptor_input(const Points& points, EstimateResult geometry,
+                                 const DescriptorOptions& options, const RunContext& run);
 
 /// The finite, deduplicated points of a cloud in canonical (lexicographic) order, normalised.
 struct Canonical {
@@ -72,7 +110,7 @@ void finish_result(EstimateResult& res, const std::vector<int64_t>& copies, size
 /// Throws InvalidOptions for options no stage accepts.
 void check_options(const EstimateOptions& options);
 
-/// True when `points` has more finite rows than options.tile_points (> 0).
+/// True when `points` has more finite rows than options.tiles.points (> 0).
 bool wants_tiles(const Points& points, const EstimateOptions& options);
 
 /// One kd-tree split of the tilings: the longest axis of the bounding box of rows

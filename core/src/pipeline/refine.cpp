@@ -1,0 +1,98 @@
+// NH-Net refinement of the MFPS normals (paper Sec. 5): the geometry stage's MFPS normals, their
+// descriptors (learned/descriptors.hpp), the trained model (learned/nhnet_model.hpp), then each
+// frame normal back to world coordinates, R^T n; block by block so memory stays bounded.
+#include "nhnet/errors.hpp"
+#include "pipeline/estimator.hpp"
+#include "util/parallel.hpp"
+
+#include <algorithm>
+#include <limits>
+
+namespace nhnet {
+
+std::shared_ptr<const NhNetModel> model_for(const ModelOptions& options, int threads) {
+  if (options.loaded) return options.loaded;
+  return std::make_shared<const NhNetModel>(
+      options.path.empty() ? default_model_path() : options.path, options.device, threads);
+}
+
+namespace {
+
+/// The progress of block b (len of m points) within the last 30 % of the run.
+ProgressCallback block_progress(const ProgressCallback& cb, Eigen::Index b, Eigen::Index len,
+                                Eigen::Index m) {
+  if (!cb) return {};
+  return [cb, b, len, m](double f, const std::string& s) {
+    return cb(0.7 + 0.3 * (double(b) + f * double(len)) / double(m), s);
+  };
+}
+
+/// One block of described points through the model; each frame normal back to world
+/// coordinates (R^T n) into res. Returns how many points kept their MFPS normal.
+int64_t refine_block(const DescriptorInput& in, Eigen::Index b, Eigen::Index len,
+                     const NhNetModel& model, const EstimateOptions& options,
+                     const RunContext& run, EstimateResult& res) {
+  const IndexMatrix knn = in.knn.middleRows(b, len);
+  DescriptorMatrix features;
+  Rotations rot;
+  compute_descriptors(in.points, in.normals, knn, in.k, DescriptorOptions{}, features, rot, run, b);
+  const auto local = model.infer(features, options.model.batch, run);
+  int64_t kept = 0;
+  for (Eigen::Index r = 0; r < len; ++r) {
+    Eigen::Matrix3d rm;
+    for (int c = 0; c < 9; ++c) rm(c / 3, c % 3) = rot(r, c);
+    const Eigen::Vector3d w = rm.transpose() * local.row(r).transpose().cast<double>();
+    if (w.allFinite() && w.norm() > 0.5) {
+      res.normals.row(in.rows[size_t(b + r)]) = w.normalized().transpose();
+    } else {
+      ++kept;  // descriptor or model failed: the MFPS normal stays
+    }
+  }
+  return kept;
+}
+
+}  // namespace
+
+namespace detail {
+
+EstimateResult estimate_nhnet(const Points& points, const EstimateOptions& options,
+                              const TileOverrides& overrides) {
+  if (options.model.batch < 1) throw InvalidOptions("nhnet batch must be >= 1");
+  // Load first: a missing or mismatched model fails before the long geometry stage.
+  const std::shared_ptr<const NhNetModel> loaded = model_for(options.model, options.run.threads);
+  const ProgressCallback cb = options.run.progress;
+  // The geometry stage as the model was trained on it (describe.hpp): MFPS without the blend.
+  EstimateOptions eo = options;
+  eo.method = Method::Mfps;
+  eo.mfps.pca_blend = DescribeOptions{}.mfps_pca_blend;
+  eo.run.progress = {};
+  if (cb) eo.run.progress = [cb](double f, const std::string& s) { return cb(0.7 * f, s); };
+  EstimateOptions geo = eo;
+  geo.run = narrow(eo.run, 0, 0.9);
+  EstimateResult geometry = estimate_geometry(points, geo, overrides);
+  DescriptorInput in = descriptor_input(points, std::move(geometry), DescriptorOptions{},
+                                        narrow(eo.run, 0.9, 1));
+  EstimateResult res = std::move(in.geometry);
+  res.device_used = loaded->device();
+  res.descriptor_k = in.k;
+  // Blocks of points: memory stays bounded by the block (D floats per point) on top of the
+  // neighbour table the geometry stage needs anyway. The block's stages (descriptor stages,
+  // "nhnet") reach the caller's callback by name, so a caller can time them apart.
+  const Eigen::Index m = Eigen::Index(in.rows.size()), block = options.model.batch;
+  int64_t kept = 0;
+  RunContext run;
+  run.threads = options.run.threads;
+  for (Eigen::Index b = 0; b < m; b += block) {
+    const Eigen::Index len = std::min(block, m - b);
+    run.progress = block_progress(cb, b, len, m);
+    kept += refine_block(in, b, len, *loaded, options, run, res);
+    if (cb && !cb(0.7 + 0.3 * double(b + len) / double(m), "nhnet")) throw Cancelled();
+  }
+  if (kept > 0)
+    res.warnings.push_back(std::to_string(kept) +
+                           " points kept their MFPS normal (no descriptor or model output)");
+  return res;
+}
+
+}  // namespace detail
+}  // namespace nhnet
