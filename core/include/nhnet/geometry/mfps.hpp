@@ -72,9 +72,9 @@ struct MfpsOptions {
   double edge_sigma_factor = 1;
   /// PCA blend (not the paper's; false = off): each candidate with a rival is rotated towards
   /// its PCA normal (`base_normals`) by a weight w, logistic in a quadratic form of the features
-  /// above (each feature and every pairwise product; the 78 coefficients in mfps.cpp were fitted
-  /// on the training split with tools/fit_mfps_blend.py). Within about one noise sigma of an
-  /// edge the face a point came from cannot be told, the large-k PCA plane (close to the
+  /// above (each feature and every pairwise product; the 78 coefficients in mfps_blend.cpp were
+  /// fitted on the training split with tools/fit_mfps_blend.py). Within about one noise sigma
+  /// of an edge the face a point came from cannot be told, the large-k PCA plane (close to the
   /// bisector) is then the lower-RMS answer; w learns where.
   bool pca_blend = true;
   /// Keep the blend features and the normals before the blend in the result (for fitting).
