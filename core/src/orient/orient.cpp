@@ -3,7 +3,6 @@
 #include "nhnet/orient/orient.hpp"
 
 #include "nhnet/errors.hpp"
-#include "nhnet/pipeline/estimate.hpp"
 #include "nhnet/neighbors/neighbors.hpp"
 #include "nhnet/geometry/pca.hpp"
 #include "neighbors/dedupe.hpp"
@@ -40,6 +39,20 @@ const char* to_string(OrientMode mode) {
   return "?";
 }
 
+int64_t orient_like(Normals& normals, const Normals& reference) {
+  if (normals.rows() != reference.rows())
+    throw InvalidOptions("orient_like: normals and reference differ in size");
+  int64_t flipped = 0;
+  for (Eigen::Index i = 0; i < normals.rows(); ++i) {
+    const double d = normals.row(i).dot(reference.row(i));
+    if (std::isfinite(d) && d < 0) {
+      normals.row(i) *= -1.0;
+      ++flipped;
+    }
+  }
+  return flipped;
+}
+
 namespace {
 
 // A normal farther than acos(kOwnVoteCos) = 45 degrees from its guide takes its own side from
@@ -55,229 +68,291 @@ bool valid_normal(const Eigen::RowVector3d& n) {
   return std::isfinite(len) && len > 1e-12;
 }
 
-/// MST orientation (Hoppe et al. 1992) of the rows `used` of points/normals: Prim's algorithm on
-/// the symmetric k-NN graph, one tree per connected component grown from its highest point, over
-/// the guide normals (OrientOptions::smooth_guide); the signs then go to `normals`.
-/// Returns for every entry of `used` whether it was oriented.
-std::vector<uint8_t> orient_mst(const Points& points, Normals& normals,
-                                const std::vector<int64_t>& used, const OrientOptions& options,
-                                OrientResult& res) {
-  const Eigen::Index m = Eigen::Index(used.size());
-  if (m == 0) return {};
-  detail::Progress progress(options.run.progress);
-  Points pts(m, 3);
-  Normals guide(m, 3);
-  for (Eigen::Index i = 0; i < m; ++i) {
+/// Adjacency lists over the rows of the points being oriented.
+using Adjacency = std::vector<std::vector<int32_t>>;
+
+/// The symmetric k-NN graph of the points being oriented, and the scales measured on it.
+struct Graph {
+  Adjacency adj;  ///< each point's neighbours, sorted, without itself
+  double noise = 0;  ///< typical offset of a neighbour from a point's guide plane
+  double spacing = 0;  ///< mean distance to the nearest other point (the flood fill's unit)
+  double median_spacing = 0;  ///< its median (blind to a few far outliers)
+};
+
+/// Copies the rows `used` of points and normals into pts and guide (unit length: the first guide).
+void gather_rows(const Points& points, const Normals& normals, const std::vector<int64_t>& used,
+                 Points& pts, Normals& guide) {
+  for (Eigen::Index i = 0; i < pts.rows(); ++i) {
     pts.row(i) = points.row(used[size_t(i)]);
     guide.row(i) = normals.row(used[size_t(i)]).normalized();
   }
+}
 
-  // Symmetric k-NN graph (an edge when either point is among the other's k nearest, self
-  // included), as adjacency lists.
-  const int k = int(std::min<Eigen::Index>(options.k, m));
-  if (options.run.progress) progress.stage("orient: neighbours", 0, 0.3);
-  std::vector<std::vector<int32_t>> adj(static_cast<size_t>(m));
-  double noise = 0;  // typical offset of a neighbour from a point's guide plane
-  double spacing = 0;  // mean distance to the nearest other point (the flood fill's unit)
-  double median_spacing = 0;  // its median (blind to a few far outliers)
-  if (m > 1) {
-    const Neighbors tree(pts);
-    RunContext sub;
-    sub.threads = options.run.threads;
-    IndexMatrix knn;
-    tree.knn_all(k, knn, nullptr, sub);
-    int64_t counted = 0;
-    std::vector<double> nearest_all;
-    nearest_all.reserve(size_t(m));
-    for (Eigen::Index i = 0; i < m; ++i) {
-      double nearest = std::numeric_limits<double>::infinity();
-      for (Eigen::Index c = 1; c < knn.cols(); ++c) {
-        const int32_t j = knn(i, c);
-        if (j == int32_t(i)) continue;
-        adj[size_t(i)].push_back(j);
-        adj[size_t(j)].push_back(int32_t(i));
-        nearest = std::min(nearest, (pts.row(j) - pts.row(i)).norm());
-      }
-      if (std::isfinite(nearest)) {
-        spacing += nearest;
-        nearest_all.push_back(nearest);
-        ++counted;
-      }
+/// Symmetric k-NN graph (an edge when either point is among the other's k nearest, self
+/// included) as adjacency lists, with the mean and median distance to the nearest other point.
+void link_neighbours(const Neighbors& tree, const Points& pts, int k, const RunContext& sub,
+                     Graph& graph) {
+  const Eigen::Index m = pts.rows();
+  IndexMatrix knn;
+  tree.knn_all(k, knn, nullptr, sub);
+  int64_t counted = 0;
+  std::vector<double> nearest_all;
+  nearest_all.reserve(size_t(m));
+  for (Eigen::Index i = 0; i < m; ++i) {
+    double nearest = std::numeric_limits<double>::infinity();
+    for (Eigen::Index c = 1; c < knn.cols(); ++c) {
+      const int32_t j = knn(i, c);
+      if (j == int32_t(i)) continue;
+      graph.adj[size_t(i)].push_back(j);
+      graph.adj[size_t(j)].push_back(int32_t(i));
+      nearest = std::min(nearest, (pts.row(j) - pts.row(i)).norm());
     }
-    if (counted > 0) spacing /= double(counted);
-    median_spacing = detail::quantile(std::move(nearest_all), 0.5);
-    for (auto& a : adj) {
-      std::sort(a.begin(), a.end());
-      a.erase(std::unique(a.begin(), a.end()), a.end());
-    }
-    if (options.smooth_guide && m >= 3) {
-      IndexMatrix gknn;
-      tree.knn_all(options.guide_k, gknn, nullptr, sub);
-      const Normals pca = pca_normals(pts, gknn, PcaOptions{int(gknn.cols())}, sub).normals;
-      for (Eigen::Index i = 0; i < m; ++i)
-        if (pca.row(i).allFinite()) guide.row(i) = pca.row(i);
-    }
-    // Noise: the median over the points of the median offset |(p_j - p_i) . g_i| of their graph
-    // neighbours (~0.95 sigma on a noisy plane); a median, so a wall's other side (a minority of
-    // the k nearest) does not count.
-    std::vector<double> typical;
-    typical.reserve(size_t(m));
-    std::vector<double> off;
-    for (Eigen::Index i = 0; i < m; ++i) {
-      off.clear();
-      for (int32_t j : adj[size_t(i)])
-        off.push_back(std::abs(guide.row(i).dot(pts.row(j) - pts.row(i))));
-      if (off.empty()) continue;
-      std::nth_element(off.begin(), off.begin() + off.size() / 2, off.end());
-      typical.push_back(off[off.size() / 2]);
-    }
-    if (!typical.empty()) {
-      std::nth_element(typical.begin(), typical.begin() + typical.size() / 2, typical.end());
-      noise = typical[typical.size() / 2];
+    if (std::isfinite(nearest)) {
+      graph.spacing += nearest;
+      nearest_all.push_back(nearest);
+      ++counted;
     }
   }
-  progress.throw_if_cancelled();
+  if (counted > 0) graph.spacing /= double(counted);
+  graph.median_spacing = detail::quantile(std::move(nearest_all), 0.5);
+  for (auto& a : graph.adj) {
+    std::sort(a.begin(), a.end());
+    a.erase(std::unique(a.begin(), a.end()), a.end());
+  }
+}
 
-  // Consistency of the pair (i, j): c_ij > 0 when the signs agree. Hoppe: g_i . g_j. Reflection
-  // (OrientOptions::reflect): g_i mirrored at the bisecting plane of p_i p_j, dotted with g_j,
-  //   c_ij = g_i . g_j - 2 (g_i . u)(g_j . u),  u = (p_j - p_i) / |p_j - p_i|,
-  // which maps a normal exactly onto its neighbour's on a sphere, across a sharp edge (cube
-  // faces: |c| = 1 where g_i . g_j = 0) and across a thin wall (opposite sides: c = +1 for
-  // outward normals facing away from each other, where g_i . g_j = -1 would copy the sign).
-  const bool reflect = options.reflect;
-  auto consistency = [&](int32_t i, int32_t j) {
-    const Eigen::RowVector3d gi = guide.row(i), gj = guide.row(j);
+/// Smooth guide (OrientOptions::smooth_guide): PCA normals over the guide_k nearest neighbours,
+/// where they are finite.
+void smooth_guide(const Neighbors& tree, const Points& pts, int guide_k, const RunContext& sub,
+                  Normals& guide) {
+  IndexMatrix gknn;
+  tree.knn_all(guide_k, gknn, nullptr, sub);
+  const Normals pca = pca_normals(pts, gknn, PcaOptions{int(gknn.cols())}, sub).normals;
+  for (Eigen::Index i = 0; i < pts.rows(); ++i)
+    if (pca.row(i).allFinite()) guide.row(i) = pca.row(i);
+}
+
+/// Noise: the median over the points of the median offset |(p_j - p_i) . g_i| of their graph
+/// neighbours (~0.95 sigma on a noisy plane); a median, so a wall's other side (a minority of
+/// the k nearest) does not count. 0 without edges.
+double guide_noise(const Points& pts, const Normals& guide, const Adjacency& adj) {
+  std::vector<double> typical;
+  typical.reserve(size_t(pts.rows()));
+  std::vector<double> off;
+  for (Eigen::Index i = 0; i < pts.rows(); ++i) {
+    off.clear();
+    for (int32_t j : adj[size_t(i)])
+      off.push_back(std::abs(guide.row(i).dot(pts.row(j) - pts.row(i))));
+    if (off.empty()) continue;
+    std::nth_element(off.begin(), off.begin() + off.size() / 2, off.end());
+    typical.push_back(off[off.size() / 2]);
+  }
+  if (typical.empty()) return 0;
+  std::nth_element(typical.begin(), typical.begin() + typical.size() / 2, typical.end());
+  return typical[typical.size() / 2];
+}
+
+/// The graph over pts and its scales; smooths `guide` on the way (one kd-tree for both).
+Graph build_graph(const Points& pts, Normals& guide, const OrientOptions& options) {
+  const Eigen::Index m = pts.rows();
+  Graph graph;
+  graph.adj.resize(static_cast<size_t>(m));
+  if (m <= 1) return graph;
+  const Neighbors tree(pts);
+  RunContext sub;
+  sub.threads = options.run.threads;
+  link_neighbours(tree, pts, int(std::min<Eigen::Index>(options.k, m)), sub, graph);
+  if (options.smooth_guide && m >= 3) smooth_guide(tree, pts, options.guide_k, sub, guide);
+  graph.noise = guide_noise(pts, guide, graph.adj);
+  return graph;
+}
+
+/// Connected components of the graph (counted for the result), by depth-first search.
+int64_t count_components(const Adjacency& adj) {
+  int64_t components = 0;
+  std::vector<uint8_t> seen(adj.size(), 0);
+  std::vector<int32_t> stack;
+  for (int32_t s = 0; s < int32_t(adj.size()); ++s) {
+    if (seen[size_t(s)]) continue;
+    ++components;
+    seen[size_t(s)] = 1;
+    stack.assign(1, s);
+    while (!stack.empty()) {
+      const int32_t u = stack.back();
+      stack.pop_back();
+      for (int32_t v : adj[size_t(u)])
+        if (!seen[size_t(v)]) {
+          seen[size_t(v)] = 1;
+          stack.push_back(v);
+        }
+    }
+  }
+  return components;
+}
+
+/// Prim's algorithm over the graph, on the guide normals: each edge costs 1 - |c_ij|, so the
+/// sign travels along the most confident pairs. Trees grown one after the other share one heap
+/// and one visited set.
+class Prim {
+ public:
+  Prim(const Points& pts, Normals& guide, const Graph& graph, const OrientOptions& options,
+       detail::Progress& progress)
+      : pts_(pts), guide_(guide), graph_(graph), options_(options), progress_(progress),
+        visited_(static_cast<size_t>(pts.rows()), 0) {}
+
+  /// Consistency of the pair (i, j): c_ij > 0 when the signs agree. Hoppe: g_i . g_j.
+  /// Reflection (OrientOptions::reflect): g_i mirrored at the bisecting plane of p_i p_j,
+  /// dotted with g_j,
+  ///   c_ij = g_i . g_j - 2 (g_i . u)(g_j . u),  u = (p_j - p_i) / |p_j - p_i|,
+  /// which maps a normal exactly onto its neighbour's on a sphere, across a sharp edge (cube
+  /// faces: |c| = 1 where g_i . g_j = 0) and across a thin wall (opposite sides: c = +1 for
+  /// outward normals facing away from each other, where g_i . g_j = -1 would copy the sign).
+  double consistency(int32_t i, int32_t j) const {
+    const Eigen::RowVector3d gi = guide_.row(i), gj = guide_.row(j);
     double c = gi.dot(gj);
-    if (reflect) {
-      const Eigen::RowVector3d d = pts.row(j) - pts.row(i);
+    if (options_.reflect) {
+      const Eigen::RowVector3d d = pts_.row(j) - pts_.row(i);
       const double len2 = d.squaredNorm();
       const double a = gi.dot(d), b = gj.dot(d);
-      const double floor = options.reflect_noise * noise;
-      if (len2 > 0 && std::min(a * a, b * b) >= options.reflect_min * options.reflect_min * len2 &&
+      const double floor = options_.reflect_noise * graph_.noise;
+      if (len2 > 0 &&
+          std::min(a * a, b * b) >= options_.reflect_min * options_.reflect_min * len2 &&
           std::min(std::abs(a), std::abs(b)) > floor)
         c -= 2.0 * a * b / len2;
     }
     return c;
-  };
+  }
 
-  // Prim from the highest unvisited point (its guide turned to +z: outward on a closed surface);
-  // each edge costs 1 - |c_ij|, so the sign travels along the most confident pairs.
-  std::vector<int32_t> order(static_cast<size_t>(m));
-  std::iota(order.begin(), order.end(), 0);
-  std::stable_sort(order.begin(), order.end(),
-                   [&](int32_t a, int32_t b) { return pts(a, 2) > pts(b, 2); });
-  std::vector<uint8_t> visited(static_cast<size_t>(m), 0);
+  bool visited(int32_t u) const { return visited_[size_t(u)] != 0; }
+  /// Marks u as reached without queueing its edges (visit() follows).
+  void mark(int32_t u) { visited_[size_t(u)] = 1; }
+
+  /// Marks u as reached and queues its edges to points not yet reached; reports progress.
+  void visit(int32_t u) {
+    visited_[size_t(u)] = 1;
+    for (int32_t v : graph_.adj[size_t(u)])
+      if (!visited_[size_t(v)]) heap_.push(Edge{1.0 - std::abs(consistency(u, v)), u, v});
+    if ((++done_ & 4095) == 0 && options_.run.progress &&
+        !progress_.report(double(done_) / double(pts_.rows())))
+      progress_.throw_if_cancelled();
+  }
+
+  /// Grows the trees until the heap is empty: each point reached along the cheapest edge turns
+  /// its guide to agree with the point it is reached from (and joins `members` when given).
+  void drain(std::vector<int32_t>* members) {
+    while (!heap_.empty()) {
+      const Edge e = heap_.top();
+      heap_.pop();
+      if (visited_[size_t(e.to)]) continue;
+      if (consistency(e.from, e.to) < 0) guide_.row(e.to) *= -1.0;
+      if (members) members->push_back(e.to);
+      visit(e.to);
+    }
+  }
+
+ private:
   struct Edge {
     double cost;
     int32_t from, to;
     bool operator<(const Edge& o) const { return cost > o.cost; }  // min-heap
   };
-  std::priority_queue<Edge> heap;
-  if (options.run.progress) progress.stage("orient: mst", 0.3, 1.0);
-  int64_t done = 0;
-  auto visit = [&](int32_t u) {
-    visited[size_t(u)] = 1;
-    for (int32_t v : adj[size_t(u)])
-      if (!visited[size_t(v)]) heap.push(Edge{1.0 - std::abs(consistency(u, v)), u, v});
-    if ((++done & 4095) == 0 && options.run.progress && !progress.report(double(done) / double(m)))
-      progress.throw_if_cancelled();
-  };
-  auto drain = [&](std::vector<int32_t>* members) {
-    while (!heap.empty()) {
-      const Edge e = heap.top();
-      heap.pop();
-      if (visited[size_t(e.to)]) continue;
-      if (consistency(e.from, e.to) < 0) guide.row(e.to) *= -1.0;
-      if (members) members->push_back(e.to);
-      visit(e.to);
-    }
-  };
 
-  // Connected components of the graph (counted for the result).
-  {
-    std::vector<uint8_t> seen(static_cast<size_t>(m), 0);
-    std::vector<int32_t> stack;
-    for (int32_t s = 0; s < int32_t(m); ++s) {
-      if (seen[size_t(s)]) continue;
-      ++res.components;
-      seen[size_t(s)] = 1;
-      stack.assign(1, s);
-      while (!stack.empty()) {
-        const int32_t u = stack.back();
-        stack.pop_back();
-        for (int32_t v : adj[size_t(u)])
-          if (!seen[size_t(v)]) {
-            seen[size_t(v)] = 1;
-            stack.push_back(v);
-          }
-      }
+  const Points& pts_;
+  Normals& guide_;
+  const Graph& graph_;
+  const OrientOptions& options_;
+  detail::Progress& progress_;
+  std::vector<uint8_t> visited_;
+  std::priority_queue<Edge> heap_;
+  int64_t done_ = 0;
+};
+
+/// A vote its decided neighbours disagree with (on the whole, weighted by the pairs'
+/// consistency) is dropped: the tree then reaches that point from them.
+void drop_disputed_votes(const Prim& prim, const Adjacency& adj, std::vector<int8_t>& vote) {
+  std::vector<int8_t> keep = vote;
+  for (Eigen::Index i = 0; i < Eigen::Index(vote.size()); ++i) {
+    if (vote[size_t(i)] == 0) continue;
+    double agree = 0, total = 0;
+    for (int32_t j : adj[size_t(i)]) {
+      if (vote[size_t(j)] == 0) continue;
+      const double c = prim.consistency(int32_t(i), j);
+      agree += c;
+      total += std::abs(c);
     }
+    if (total > 0 && agree < -kCleanup * total) keep[size_t(i)] = 0;
   }
+  vote.swap(keep);
+}
 
-  // Closed surfaces: every point the flood fill decides takes its side (inside_outside.hpp),
-  // and the tree grows from all of them at once, so an undecided point takes the sign of its
-  // most confident path to a decided one.
-  std::unique_ptr<detail::InsideOutside> sides;
-  if (options.inside_outside && m >= 4) {
-    detail::InsideOutsideOptions io;
-    io.typical_spacing = median_spacing;
-    sides = std::make_unique<detail::InsideOutside>(pts, guide, spacing, io, options.run.threads);
-    res.voxel = sides->voxel();
-    std::vector<int8_t> vote = sides->votes();
-    for (Eigen::Index i = 0; i < m; ++i)
-      if (vote[size_t(i)] < 0) guide.row(i) *= -1.0;
-    // A vote its decided neighbours disagree with (on the whole, weighted by the pairs'
-    // consistency) is dropped: the tree then reaches that point from them.
-    {
-      std::vector<int8_t> keep = vote;
-      for (Eigen::Index i = 0; i < m; ++i) {
-        if (vote[size_t(i)] == 0) continue;
-        double agree = 0, total = 0;
-        for (int32_t j : adj[size_t(i)]) {
-          if (vote[size_t(j)] == 0) continue;
-          const double c = consistency(int32_t(i), j);
-          agree += c;
-          total += std::abs(c);
-        }
-        if (total > 0 && agree < -kCleanup * total) keep[size_t(i)] = 0;
-      }
-      vote.swap(keep);
+/// Closed surfaces: every point the flood fill decides takes its side (inside_outside.hpp),
+/// and the trees grow from all of them at once, so an undecided point takes the sign of its
+/// most confident path to a decided one. Returns the flood fill (for copy_signs).
+std::unique_ptr<detail::InsideOutside> grow_from_sides(Prim& prim, const Points& pts,
+                                                       Normals& guide, const Graph& graph,
+                                                       const OrientOptions& options,
+                                                       OrientResult& res) {
+  detail::InsideOutsideOptions io;
+  io.typical_spacing = graph.median_spacing;
+  auto sides = std::make_unique<detail::InsideOutside>(pts, guide, graph.spacing, io,
+                                                       options.run.threads);
+  res.voxel = sides->voxel();
+  std::vector<int8_t> vote = sides->votes();
+  const Eigen::Index m = pts.rows();
+  for (Eigen::Index i = 0; i < m; ++i)
+    if (vote[size_t(i)] < 0) guide.row(i) *= -1.0;
+  drop_disputed_votes(prim, graph.adj, vote);
+  // All decided points are marked first, so only edges into undecided points enter the heap.
+  for (Eigen::Index i = 0; i < m; ++i)
+    if (vote[size_t(i)] != 0) {
+      prim.mark(int32_t(i));
+      ++res.inside_outside_votes;
     }
-    // All decided points are marked first, so only edges into undecided points enter the heap.
-    for (Eigen::Index i = 0; i < m; ++i)
-      if (vote[size_t(i)] != 0) {
-        visited[size_t(i)] = 1;
-        ++res.inside_outside_votes;
-      }
-    for (Eigen::Index i = 0; i < m; ++i)
-      if (vote[size_t(i)] != 0) visit(int32_t(i));
-    drain(nullptr);
-  }
+  for (Eigen::Index i = 0; i < m; ++i)
+    if (vote[size_t(i)] != 0) prim.visit(int32_t(i));
+  prim.drain(nullptr);
+  return sides;
+}
 
+/// Global sign of a tree: outward on the whole, sum_i (p_i - centroid) . n_i >= 0 (3 x the
+/// enclosed volume on a closed surface, divergence theorem). One seed normal decides badly
+/// where the top is a rim or a thin edge.
+void turn_outward(const Points& pts, Normals& guide, const std::vector<int32_t>& members) {
+  Eigen::RowVector3d c = Eigen::RowVector3d::Zero();
+  for (int32_t u : members) c += pts.row(u);
+  c /= double(members.size());
+  double flux = 0;
+  for (int32_t u : members) flux += (pts.row(u) - c).dot(guide.row(u));
+  if (flux < 0)
+    for (int32_t u : members) guide.row(u) *= -1.0;
+}
+
+/// One tree per component not yet reached, grown from its highest point (its guide turned to
+/// +z: outward on a closed surface), then turned outward (OrientOptions::outward_vote).
+void grow_from_tops(Prim& prim, const Points& pts, Normals& guide, const OrientOptions& options) {
+  std::vector<int32_t> order(static_cast<size_t>(pts.rows()));
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(),
+                   [&](int32_t a, int32_t b) { return pts(a, 2) > pts(b, 2); });
   std::vector<int32_t> members;
   for (int32_t seed : order) {
-    if (visited[size_t(seed)]) continue;
+    if (prim.visited(seed)) continue;
     if (guide(seed, 2) < 0) guide.row(seed) *= -1.0;
     members.assign(1, seed);
-    visit(seed);
-    drain(&members);
-    // Global sign of the component: outward on the whole, sum_i (p_i - centroid) . n_i >= 0
-    // (3 x the enclosed volume on a closed surface, divergence theorem). One seed normal decides
-    // badly where the top is a rim or a thin edge.
-    if (options.outward_vote && members.size() > 1) {
-      Eigen::RowVector3d c = Eigen::RowVector3d::Zero();
-      for (int32_t u : members) c += pts.row(u);
-      c /= double(members.size());
-      double flux = 0;
-      for (int32_t u : members) flux += (pts.row(u) - c).dot(guide.row(u));
-      if (flux < 0)
-        for (int32_t u : members) guide.row(u) *= -1.0;
-    }
+    prim.visit(seed);
+    prim.drain(&members);
+    if (options.outward_vote && members.size() > 1) turn_outward(pts, guide, members);
   }
-  progress.throw_if_cancelled();
+}
 
-  // Signs to the caller's normals (only the sign changes, the length stays the caller's); a
-  // normal perpendicular to its oriented guide has no sign to take.
+/// Signs to the caller's normals (only the sign changes, the length stays the caller's); a
+/// normal perpendicular to its oriented guide has no sign to take. Returns for every entry of
+/// `used` whether it was oriented.
+std::vector<uint8_t> copy_signs(const Points& pts, const Normals& guide,
+                                const detail::InsideOutside* sides,
+                                const std::vector<int64_t>& used, Normals& normals,
+                                OrientResult& res) {
+  const Eigen::Index m = pts.rows();
   std::vector<uint8_t> oriented(static_cast<size_t>(m), 0);
   for (Eigen::Index li = 0; li < m; ++li) {
     const int64_t row = used[size_t(li)];
@@ -300,6 +375,36 @@ std::vector<uint8_t> orient_mst(const Points& points, Normals& normals,
     }
   }
   return oriented;
+}
+
+/// MST orientation (Hoppe et al. 1992) of the rows `used` of points/normals: Prim's algorithm on
+/// the symmetric k-NN graph, one tree per connected component grown from its highest point, over
+/// the guide normals (OrientOptions::smooth_guide); the signs then go to `normals`.
+/// Returns for every entry of `used` whether it was oriented.
+std::vector<uint8_t> orient_mst(const Points& points, Normals& normals,
+                                const std::vector<int64_t>& used, const OrientOptions& options,
+                                OrientResult& res) {
+  const Eigen::Index m = Eigen::Index(used.size());
+  if (m == 0) return {};
+  detail::Progress progress(options.run.progress);
+  Points pts(m, 3);
+  Normals guide(m, 3);
+  gather_rows(points, normals, used, pts, guide);
+
+  if (options.run.progress) progress.stage("orient: neighbours", 0, 0.3);
+  const Graph graph = build_graph(pts, guide, options);
+  progress.throw_if_cancelled();
+
+  if (options.run.progress) progress.stage("orient: mst", 0.3, 1.0);
+  Prim prim(pts, guide, graph, options, progress);
+  res.components += count_components(graph.adj);
+  std::unique_ptr<detail::InsideOutside> sides;
+  if (options.inside_outside && m >= 4)
+    sides = grow_from_sides(prim, pts, guide, graph, options, res);
+  grow_from_tops(prim, pts, guide, options);
+  progress.throw_if_cancelled();
+
+  return copy_signs(pts, guide, sides.get(), used, normals, res);
 }
 
 /// MST orientation with exact duplicates seen once: k copies of a position would form their
@@ -331,10 +436,9 @@ void orient_mst_deduplicated(const Points& points, Normals& normals,
   }
 }
 
-}  // namespace
-
-OrientResult orient_normals(const Points& points, Normals& normals, const OrientOptions& options,
-                            const Normals& reference) {
+/// Throws InvalidOptions for mismatched sizes or options the chosen mode cannot use.
+void check_options(const Points& points, const Normals& normals, const OrientOptions& options,
+                   const Normals& reference) {
   if (normals.rows() != points.rows())
     throw InvalidOptions("orient: " + std::to_string(normals.rows()) + " normals for " +
                          std::to_string(points.rows()) + " points");
@@ -350,9 +454,10 @@ OrientResult orient_normals(const Points& points, Normals& normals, const Orient
                          std::to_string(reference.rows()) + " for " +
                          std::to_string(points.rows()) + " points)");
   if (options.run.threads < 0) throw InvalidOptions("orient: threads must be >= 0");
-  detail::start_threads(options.run.threads);  // before the big allocations
+}
 
-  OrientResult res;
+/// The rows with a finite point and a valid normal; the others are counted as invalid.
+std::vector<int64_t> valid_rows(const Points& points, const Normals& normals, OrientResult& res) {
   std::vector<int64_t> used;
   used.reserve(size_t(points.rows()));
   for (Eigen::Index i = 0; i < points.rows(); ++i) {
@@ -361,27 +466,51 @@ OrientResult orient_normals(const Points& points, Normals& normals, const Orient
     else
       ++res.invalid;
   }
+  return used;
+}
 
+/// Keep: the signs of the reference normals (orient_like); a missing or perpendicular
+/// reference leaves its row unoriented.
+void orient_keep(Normals& normals, const Normals& reference, const std::vector<int64_t>& used,
+                 OrientResult& res) {
+  for (int64_t i : used) {
+    const double d = normals.row(i).dot(reference.row(i));
+    if (!std::isfinite(d) || d == 0) ++res.unoriented;
+  }
+  res.flipped = orient_like(normals, reference);
+}
+
+/// Viewpoint: every normal towards the sensor, (v - p_i) . n_i > 0.
+void orient_viewpoint(const Points& points, Normals& normals, const Eigen::Vector3d& viewpoint,
+                      const std::vector<int64_t>& used, OrientResult& res) {
+  for (int64_t i : used) {
+    const double d = (viewpoint.transpose() - points.row(i)).dot(normals.row(i));
+    if (d < 0) {
+      normals.row(i) *= -1.0;
+      ++res.flipped;
+    } else if (!(d > 0)) {
+      ++res.unoriented;
+    }
+  }
+}
+
+}  // namespace
+
+OrientResult orient_normals(const Points& points, Normals& normals, const OrientOptions& options,
+                            const Normals& reference) {
+  check_options(points, normals, options, reference);
+  detail::start_threads(options.run.threads);  // before the big allocations
+
+  OrientResult res;
+  const std::vector<int64_t> used = valid_rows(points, normals, res);
   switch (options.mode) {
     case OrientMode::None:
       break;
     case OrientMode::Keep:
-      for (int64_t i : used) {
-        const double d = normals.row(i).dot(reference.row(i));
-        if (!std::isfinite(d) || d == 0) ++res.unoriented;
-      }
-      res.flipped = orient_like(normals, reference);
+      orient_keep(normals, reference, used, res);
       break;
     case OrientMode::Viewpoint:
-      for (int64_t i : used) {
-        const double d = (options.viewpoint.transpose() - points.row(i)).dot(normals.row(i));
-        if (d < 0) {
-          normals.row(i) *= -1.0;
-          ++res.flipped;
-        } else if (!(d > 0)) {
-          ++res.unoriented;
-        }
-      }
+      orient_viewpoint(points, normals, options.viewpoint, used, res);
       break;
     case OrientMode::Mst:
       orient_mst_deduplicated(points, normals, used, options, res);

@@ -36,20 +36,6 @@ const char* to_string(Method method) {
   return "?";
 }
 
-int64_t orient_like(Normals& normals, const Normals& reference) {
-  if (normals.rows() != reference.rows())
-    throw InvalidOptions("orient_like: normals and reference differ in size");
-  int64_t flipped = 0;
-  for (Eigen::Index i = 0; i < normals.rows(); ++i) {
-    const double d = normals.row(i).dot(reference.row(i));
-    if (std::isfinite(d) && d < 0) {
-      normals.row(i) *= -1.0;
-      ++flipped;
-    }
-  }
-  return flipped;
-}
-
 }  // namespace nhnet
 
 namespace nhnet {

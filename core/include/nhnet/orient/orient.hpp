@@ -104,4 +104,10 @@ struct OrientResult {
 OrientResult orient_normals(const Points& points, Normals& normals, const OrientOptions& options,
                             const Normals& reference = Normals());
 
+/// Flips each valid row of `normals` (N x 3) whose dot product with the matching row of
+/// `reference` (N x 3) is negative, so signs agree with the reference ("--orient keep").
+/// Rows where the reference is zero or non-finite are left as they are. Returns how many were
+/// flipped.
+int64_t orient_like(Normals& normals, const Normals& reference);
+
 }  // namespace nhnet

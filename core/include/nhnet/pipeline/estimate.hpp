@@ -103,10 +103,4 @@ struct EstimateResult {
 /// callback returns false.
 EstimateResult estimate_normals(const Points& points, const EstimateOptions& options = {});
 
-/// Flips each valid row of `normals` (N x 3) whose dot product with the matching row of
-/// `reference` (N x 3) is negative, so signs agree with the reference ("--orient keep").
-/// Rows where the reference is zero or non-finite are left as they are. Returns how many were
-/// flipped.
-int64_t orient_like(Normals& normals, const Normals& reference);
-
 }  // namespace nhnet
