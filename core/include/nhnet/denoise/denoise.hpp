@@ -104,8 +104,4 @@ struct DenoiseResult {
 DenoiseResult denoise_points(const Points& points, const Normals& normals,
                              const DenoiseOptions& options = {});
 
-/// Average spacing: mean over the points of the mean distance to their `k` nearest other points
-/// (CGAL's compute_average_spacing definition). `points` must be finite, at least 2 rows.
-double average_spacing(const Points& points, int k = 6, const RunContext& run = {});
-
 }  // namespace nhnet
