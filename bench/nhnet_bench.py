@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """nhnet benchmark: every normal estimator on the same generated clouds, in one run.
 
-Protocol: notes/benchmark.md (paper Sec. 6.1). Data: nhnet-datagen (training/nhnet_training),
+Protocol: docs/design/benchmark-protocol.md (paper Sec. 6.1). Data: nhnet-datagen (training/nhnet_training),
 generated here when missing. For every cloud and every method one child process runs the
 estimator (``nhnet-bench-worker`` for nhnet / PCL / CGAL, ``open3d_worker.py`` for Open3D), so the
 peak RSS read with ``os.wait4`` is that method's own. Accuracy is scored with nhnet's metrics
@@ -54,7 +54,7 @@ METHODS: dict[str, tuple[str, bool, str]] = {
 }
 REFERENCE = "pcl-pca"  # time ratios are to this method on the same cloud at the same K
 
-# K of the single-scale peers per category (notes/benchmark.md). The first K is the category's
+# K of the single-scale peers per category (docs/design/benchmark-protocol.md#data). The first K is the category's
 # main one (time ratios of K-free methods, the overall table). MFPS "paper scales" are
 # {K/2, K, 3K/2}: the paper's {50, 100, 150}, doubled on BigNoise; run where one K is given.
 PROTOCOL_K: dict[str, list[int]] = {
@@ -68,7 +68,7 @@ PROTOCOL_K: dict[str, list[int]] = {
 PAPER_CATEGORIES = ["SharpFeature", "RichFeature", "SmoothSurface", "BigNoise"]
 QUICK_POINTS = 10000
 FULL_POINTS = 20000  # paper: 10k-100k per cloud; --points for more
-VCM_OFFSET_SPACINGS = 5.0  # CGAL VCM offset radius, in average spacings (notes/benchmark.md)
+VCM_OFFSET_SPACINGS = 5.0  # CGAL VCM offset radius, in average spacings (docs/design/benchmark-protocol.md#peers-same-clouds-same-machine-same-run)
 
 
 def paper_scales(k: int) -> list[int]:

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Retakes the CloudCompare screenshots in docs/ (README "Plugins > CloudCompare") from the real
+# Retakes the CloudCompare screenshots in docs/ (docs/plugins.md#cloudcompare) from the real
 # CloudCompare GUI under Xvfb, driven by xdotool at fixed coordinates (CloudCompare 2.11.3's
 # layout in a 1280x800 window, no window manager):
 #   bash scripts/cc-screenshots.sh [OUTDIR]      (default: docs/)

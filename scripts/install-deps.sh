@@ -28,7 +28,7 @@ PKGS=(
   meshlab qtbase5-dev libqt5opengl5-dev libglew-dev dpkg-dev xvfb xauth
   # CloudCompare plugin: the stock CloudCompare (its headers: source package, as MeshLab's)
   cloudcompare
-  # the plugins' README screenshots (plugins/meshlab/screenshots.sh, scripts/cc-screenshots.sh)
+  # the plugins' screenshots (docs/plugins.md) (plugins/meshlab/screenshots.sh, scripts/cc-screenshots.sh)
   xdotool imagemagick
   # NH-Net: training (python3-torch) and inference in the core (libtorch-dev, same 1.13)
   python3-torch libtorch-dev

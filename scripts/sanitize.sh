@@ -5,7 +5,7 @@
 # crash reproducers.
 #   bash scripts/sanitize.sh
 # Any ASan/UBSan report aborts the test that triggered it, so it fails. scripts/test.sh runs
-# this after the normal tests (see the note in README "Tests"); set NHNET_SKIP_SANITIZE=1 there
+# this after the normal tests (see CONTRIBUTING.md#test); set NHNET_SKIP_SANITIZE=1 there
 # to skip it. Exit status: ctest's.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."

@@ -1,4 +1,4 @@
-// Accuracy of the normal-guided denoiser (paper Eq. 9, core/denoise.hpp) on generated clouds
+// Accuracy of the normal-guided denoiser (paper Eq. 9, core/include/nhnet/denoise/denoise.hpp) on generated clouds
 // with clean points: for every BASE (a datagen cloud path without extension: BASE.xyz noisy,
 // BASE.clean.xyz clean, BASE.gt.xyzn ground-truth normals) and every normal source, prints the
 // mean distance of the noisy and of the denoised points to the clean surface (point-to-plane to

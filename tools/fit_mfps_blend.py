@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Fits the MFPS PCA blend (MfpsOptions::pca_blend, core/src/mfps.cpp kBlendCoefficients).
+"""Fits the MFPS PCA blend (MfpsOptions::pca_blend, core/src/geometry/mfps_blend.cpp kBlendCoefficients).
 
 Input: the files `calibrate_scales blend=DIR ...` writes (one per cloud with ground truth): per
 candidate with a rival its blend features, its MFPS normal before the blend, its PCA normal and
@@ -39,7 +39,7 @@ def load(path: Path):
 
 
 def terms(f):
-    """The blend's terms, in the order of core/src/mfps.cpp blend_weight(): the features (the
+    """The blend's terms, in the order of core/src/geometry/mfps_blend.cpp blend_weight(): the features (the
     first is the intercept), then every product f_a f_b of the others with a <= b."""
     products = [f[:, a] * f[:, b] for a in range(1, FEATURES) for b in range(a, FEATURES)]
     return torch.cat([f, torch.stack(products, 1)], 1) if len(f) else f.new_zeros((0, TERMS))

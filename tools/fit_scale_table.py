@@ -1,4 +1,4 @@
-"""Fits the rho -> k table of core/src/scales.cpp from `calibrate_scales pca` output.
+"""Fits the rho -> k table of core/src/geometry/scales.cpp from `calibrate_scales pca` output.
 
 Each input line holds a cloud's noise ratio `rho=` and the RMS angle error of PCA at several
 `k<K>=` values. Knots sit at fixed rho values; the k of each knot is chosen from a candidate

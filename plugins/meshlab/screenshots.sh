@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Takes the README's screenshots of the plugin in the real MeshLab 2020.09 GUI, headless:
+# Takes the screenshots (docs/plugins.md#meshlab) of the plugin in the real MeshLab 2020.09 GUI, headless:
 #   bash plugins/meshlab/screenshots.sh [build/plugins/meshlab/libfilter_nhnet.so]
 # Writes docs/meshlab/menu.png (Filters > Point Set with both filters) and
 # docs/meshlab/normals.png (the bundled sample after "Estimate normals (NH-Net)" applied from its

@@ -67,7 +67,7 @@ points : array_like, shape (N, 3)
 method : {'mfps', 'pca'}
     'mfps' (default): PCA for smooth points and multi-scale fitting patch selection near sharp
     features (paper Sec. 4), candidates then blended towards their PCA normal where the
-    selection is likely wrong (README, step 4). 'pca': plain PCA over the k nearest neighbours.
+    selection is likely wrong (docs/design/paper.md#the-geometry-stage-as-implemented, step 4). 'pca': plain PCA over the k nearest neighbours.
 k : int
     PCA neighbourhood size (self included), 0 (default) = chosen from the noise level, else >= 3.
 scales : sequence of int, optional

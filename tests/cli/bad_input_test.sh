@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The bad-input matrix of notes/reliability.md, end to end through nhnet-cli: one case per row
+# The bad-input matrix of docs/design/reliability.md#the-bad-input-matrix, end to end through nhnet-cli: one case per row
 # (case_rowNN_<what>), registered by tests/cli/CMakeLists.txt as ctest tests badinput.<case>.
 # Usage: bad_input_test.sh PATH/TO/nhnet-cli CASE
 #
@@ -402,7 +402,7 @@ case_row22_line_plane_close_planes() {
   awk 'BEGIN { srand(12); for (i = 0; i < 3000; i++) printf "%.17g %.17g 0\n", rand(), rand() }' >plane.xyz
   # The geometric stage gives a perfect plane exact normals; NH-Net (the default) adds its
   # network's constant correction on a flat patch (measured 0.22 deg for the shipped model;
-  # removing it at export cost 0.1 deg of mean error on the benchmark subset, models/README.md).
+  # removing it at export cost 0.1 deg of mean error on the benchmark subset, docs/design/decisions.md#keep-the-networks-constant-correction-on-flat-patches).
   accepted plane.xyz plane.xyzn --method mfps
   awk '!($4 == 0 && $5 == 0 && ($6 == 1 || $6 == -1)) { exit 1 }' plane.xyzn || fail "plane normals are not exactly +-z"
   accepted plane.xyz plane_nh.xyzn

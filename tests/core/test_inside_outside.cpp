@@ -1,4 +1,4 @@
-// Inside / outside votes of the flood fill (core/src/inside_outside.hpp): outward normals of
+// Inside / outside votes of the flood fill (core/src/orient/inside_outside.hpp): outward normals of
 // closed surfaces (sphere, noisy cube, thin slab) vote +1 and their negatives -1, a normal
 // tangent to the surface gets no vote, an open surface has no watertight grid and no votes.
 #include "fixtures.hpp"

@@ -1,4 +1,4 @@
-// Out-of-core estimation (core/src/stream.cpp): an XYZ file processed in tiles through temporary
+// Out-of-core estimation (core/src/pipeline/stream.cpp): an XYZ file processed in tiles through temporary
 // files gets the normals of the in-memory run, in the input's order; non-finite points fail and
 // are reported; bad input, PLY input and MST orientation are refused without an output; progress
 // reaches 1 and cancelling leaves neither an output nor temporary files.

@@ -1,4 +1,4 @@
-// Spatial tiling (core/src/tiling.cpp): a cloud processed in tiles with halos gets the normals of
+// Spatial tiling (core/src/pipeline/tiling.cpp): a cloud processed in tiles with halos gets the normals of
 // the untiled run, for PCA, MFPS and NH-Net; non-finite points and duplicates across tile
 // borders are handled like the untiled run; progress reaches 1 and cancellation stops it.
 #include "fixtures.hpp"

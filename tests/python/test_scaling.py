@@ -66,7 +66,7 @@ def test_per_point_numbers_are_sane(scaling):
 def test_streamed_mfps_scores_like_the_in_memory_one(scaling):
     # Same cloud, same sizes from the whole cloud's probe: the streamed normals equal the
     # in-memory ones up to tile-border effects, so the scores agree to 0.05 deg (measured 0.0003
-    # deg mean difference at 10M points, docs/notes/issue-10.md).
+    # deg mean difference at 10M points, docs/design/decisions.md#out-of-core-estimation---stream).
     _, results = scaling
     for n in SIZES:
         (mem,) = [r for r in results["records"] if r["n"] == n and r["method"] == "mfps-auto"]

@@ -1,6 +1,6 @@
 """Deterministic benchmark / training point clouds with ground-truth normals.
 
-Protocol: ``notes/benchmark.md`` (shared notes).  Points are sampled uniformly by area on
+Protocol: ``docs/design/benchmark-protocol.md#data``.  Points are sampled uniformly by area on
 the triangles of the CGAL demo meshes; the ground-truth normal of a point is the unit normal
 of the face it was sampled on; noise is Gaussian per coordinate with
 ``std = level / 100 * (bbox diagonal of the clean sampled cloud)``.

@@ -1,6 +1,6 @@
 """TorchScript export: the model plus its metadata (descriptor version, scales rule, sigmas,
 patch size, normalisation, training config) as the archive's extra file `nhnet.json`, which the
-C++ loader (core/src/torch/nhnet_model.cpp) checks before using the model."""
+C++ loader (core/src/learned/model_torch.cpp) checks before using the model."""
 from __future__ import annotations
 
 import argparse

@@ -1,5 +1,5 @@
 // Residual bandwidth (sigma_j of paper Eq. 1-4), following the authors' rule
-// (notes/nhnet-reference.md Sec. 2) in gather form.
+// (docs/design/paper.md#residual-bandwidth-authors-rule) in gather form.
 #include "nhnet/geometry/bandwidth.hpp"
 
 #include "nhnet/errors.hpp"

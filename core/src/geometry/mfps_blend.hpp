@@ -1,7 +1,7 @@
 // Internal to MFPS (mfps.cpp): the PCA blend (MfpsOptions::pca_blend). Not the paper's: a
 // logistic weight, fitted by tools/fit_mfps_blend.py, of a quadratic form of features of the
 // two-face selection; each candidate with a rival is rotated towards its PCA normal by that
-// weight, which is large where the selection is likely wrong (see mfps.hpp, docs/notes/issue-2.md).
+// weight, which is large where the selection is likely wrong (see mfps.hpp, docs/design/decisions.md#mfps-pca-blend).
 #pragma once
 
 #include "nhnet/geometry/mfps.hpp"

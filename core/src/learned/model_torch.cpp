@@ -146,7 +146,7 @@ NhNetModel::NhNetModel(const std::string& path, const std::string& device, int t
   at::set_num_threads(threads > 0 ? threads : std::max(1, omp_get_max_threads()));
   // Frozen (weights inlined as constants, batch norms folded into the layers before them) and,
   // on the CPU, optimised for inference (oneDNN convolutions): 3.3x the points per second of
-  // the scripted module on 2 cores, outputs equal to 1e-6 (note on issue 10). A model the passes
+  // the scripted module on 2 cores, outputs equal to 1e-6 (docs/design/decisions.md#nh-net-inference-frozen-and-optimised-on-load). A model the passes
   // cannot handle runs as it was loaded.
   try {
     torch::jit::Module frozen = torch::jit::freeze(impl_->module);

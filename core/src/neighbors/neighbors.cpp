@@ -1,9 +1,9 @@
 // Neighbour search: one nanoflann kd-tree (float, re-centred coordinates) per cloud.
-// Chosen by measurement against PCL's FLANN tree and CGAL's kd-tree (see the note on issue 2).
+// Chosen by measurement against PCL's FLANN tree and CGAL's kd-tree (docs/design/decisions.md#kd-tree-nanoflann-with-queries-in-leaf-order).
 // After the build the coordinates are stored in the tree's leaf order (the tree's index array
 // becomes the identity), so a leaf's points are contiguous in memory and knn_all visits queries
 // in that order: the same tree, the same visiting order, the same results (ties included), 20-30 %
-// less neighbour-search time at 1M points (note on issue 10). Indices map back to input order.
+// less neighbour-search time at 1M points (docs/design/decisions.md#kd-tree-nanoflann-with-queries-in-leaf-order). Indices map back to input order.
 #include "nhnet/neighbors/neighbors.hpp"
 
 #include "nhnet/errors.hpp"

@@ -70,7 +70,7 @@ Probe probe_noise(const Points& pts, const Neighbors& tree, const RunContext& ru
   // kProbeAllPoints points (every (m / kProbeAllPoints)-th in the canonical order): the noise
   // quantile and the median spacing of that many points differ from the whole cloud's in the
   // third digit, and the neighbour search then runs once, at the size the stages need, instead
-  // of twice (note on issue 10).
+  // of twice (docs/design/decisions.md#noise-probe-on-a-subset).
   Probe out;
   const Eigen::Index m = pts.rows();
   const int kprobe = int(std::min<Eigen::Index>(kNoiseProbeK, m));

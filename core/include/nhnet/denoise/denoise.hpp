@@ -58,9 +58,10 @@ struct DenoiseOptions {
   /// this fraction: the noise is gone and further steps only drift (with fixed normals, Eq. 9
   /// moves curved parts inwards by ~(w - lambda) |p_j - p_i|^2 / 2R every step, and estimated
   /// normals' errors add a bias of |p_j - p_i| x the angle error). Not in the paper, which runs
-  /// 20 steps. 0 = always `iterations`. 0.2 measured on the benchmark subset (docs/notes/
-  /// issue-5.md): mean after/before over 12 clouds with mfps normals 0.88 (0) / 0.51 (0.1) /
-  /// 0.48 (0.2) / 0.48 (0.3), and no cloud got worse from 0.2 on (ChineseDragon at 0.05 %
+  /// 20 steps. 0 = always `iterations`. 0.2 measured on the benchmark subset
+  /// (docs/design/decisions.md#stop-early-when-the-roughness-stops-falling): mean after/before
+  /// over 12 clouds with mfps normals 0.88 (0) / 0.51 (0.1) / 0.48 (0.2) / 0.48 (0.3), and no
+  /// cloud got worse from 0.2 on (ChineseDragon at 0.05 %
   /// noise did with 20 steps: ratio 2.4).
   double stop_drop = 0.2;
   /// Safety cap on |N_i|: the nearest max_neighbors points of the ball are kept (0 = no cap).

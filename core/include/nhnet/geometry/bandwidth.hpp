@@ -1,5 +1,5 @@
 // Per-point residual bandwidth sigma_j of paper Eq. 1-4 (the paper leaves it open; we follow the
-// authors' code, see notes/nhnet-reference.md Sec. 2): every point takes the plane residual it has
+// authors' code, see docs/design/paper.md#residual-bandwidth-authors-rule): every point takes the plane residual it has
 // in the "best" small patch around it, and its bandwidth is the mean of those residuals over a
 // larger neighbourhood. The kernel width of MFPS is then sigma_j = 2 * bandwidth(j).
 #pragma once
