@@ -6,6 +6,8 @@ set -euo pipefail
 PKGS=(
   # toolchain
   cmake ninja-build g++ pkg-config git
+  # formatting (.clang-format; scripts/format.sh, checked in CI)
+  clang-format-14
   # core: linear algebra, kd-tree, parallel loops come with g++ (OpenMP)
   libeigen3-dev libnanoflann-dev
   # cli

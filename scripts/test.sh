@@ -3,7 +3,9 @@
 #   bash scripts/test.sh
 # Installs the Debian packages, builds into build/, runs ctest (C++ unit tests and CLI tests)
 # and pytest on tests/python with Debian's /usr/bin/python3, then the ASan + UBSan build and
-# ctest run of scripts/sanitize.sh (NHNET_SKIP_SANITIZE=1 skips it). Exits non-zero if anything fails.
+# ctest run of scripts/sanitize.sh (NHNET_SKIP_SANITIZE=1 skips it). With NHNET_CHECK_FORMAT=1
+# (CI) it also checks the C++ formatting (scripts/format.sh --check). Exits non-zero if anything
+# fails.
 # Safe to run again (idempotent). CI runs exactly this through .ci/run.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
@@ -12,6 +14,11 @@ echo "== 1-2/4 Debian packages, configure and build"
 bash scripts/build.sh
 
 failed=()
+
+# NHNET_CHECK_FORMAT=1 (set by .ci/run): every tracked C++ file follows .clang-format.
+if [[ ${NHNET_CHECK_FORMAT:-0} == 1 ]] && ! bash scripts/format.sh --check; then
+  failed+=(format)
+fi
 
 echo "== 3/4 ctest (C++ and CLI tests)"
 if ! (cd build && ctest --output-on-failure -j2); then
