@@ -79,7 +79,7 @@ void register_denoise(py::module_& m) {
         py::arg("points"), py::arg("normals"), py::kw_only(),
         py::arg("iterations") = defaults.iterations, py::arg("radius") = defaults.radius,
         py::arg("radius_factor") = defaults.radius_factor, py::arg("sigma") = defaults.sigma,
-        py::arg("threads") = 0, py::arg("progress") = py::none());
+        py::arg("threads") = defaults.run.threads, py::arg("progress") = py::none());
 }
 
 }  // namespace nhnet::python

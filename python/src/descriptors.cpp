@@ -61,7 +61,8 @@ Returns a dict: 'features' (N, DESCRIPTOR_SIZE) float32 (NaN rows where invalid)
 (N, 3) float64 MFPS normals, 'rotations' (N, 3, 3) float64 (R @ n maps world to the frame),
 'valid' (N,) bool, 'k_used' (descriptor neighbourhood), 'scales_used', 'spacing',
 'noise_ratio'. threads / seed / progress as in nhnet.estimate().)",
-      py::arg("points"), py::kw_only(), py::arg("threads") = 0, py::arg("seed") = uint64_t(1),
+      py::arg("points"), py::kw_only(), py::arg("threads") = EstimateOptions{}.run.threads,
+      py::arg("seed") = EstimateOptions{}.mfps.seed,
       py::arg("progress") = py::none());
 }
 

@@ -143,9 +143,12 @@ void register_estimate(py::module_& m) {
                   "failed count, noise ratio, sizes used, warnings).\n") +
       kArgsDoc;
   // One argument list for estimate() and estimate_normals().
+  // Defaults from the core's options (one place for every front end).
+  const EstimateOptions defaults;
   const auto args = std::make_tuple(
-      py::arg("points"), py::kw_only(), py::arg("method") = "mfps", py::arg("k") = 0,
-      py::arg("scales") = py::none(), py::arg("threads") = 0, py::arg("seed") = uint64_t(1),
+      py::arg("points"), py::kw_only(), py::arg("method") = std::string(to_string(defaults.method)),
+      py::arg("k") = defaults.k, py::arg("scales") = py::none(),
+      py::arg("threads") = defaults.run.threads, py::arg("seed") = defaults.mfps.seed,
       py::arg("orient") = py::none(), py::arg("viewpoint") = py::none(),
       py::arg("progress") = py::none());
   std::apply([&](const auto&... a) { m.def("estimate", &estimate, estimate_doc.c_str(), a...); },

@@ -118,7 +118,7 @@ void register_orient(py::module_& m) {
         "Raises nhnet.InvalidOptions (a ValueError) for bad options or mismatched sizes.",
         py::arg("points"), py::arg("normals"), py::arg("mode") = "mst", py::kw_only(),
         py::arg("reference") = py::none(), py::arg("viewpoint") = py::none(),
-        py::arg("k") = OrientOptions().k, py::arg("threads") = 0,
+        py::arg("k") = OrientOptions().k, py::arg("threads") = OrientOptions().run.threads,
         py::arg("progress") = py::none());
 }
 
