@@ -15,6 +15,7 @@
 #include <filesystem>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 namespace nhnet::io_detail {
@@ -94,22 +95,44 @@ bool parse_count(std::string_view token, uint64_t max, uint64_t& value);
 std::string quote_token(std::string_view token);
 
 // ---------------------------------------------------------------------------------------------
-// XYZ text lines (io_xyz.cpp; also the streaming reader of stream.cpp)
+// XYZ text lines (xyz.cpp; also the streaming reader of pipeline/stream.cpp)
 
 /// Most columns accepted on one XYZ line (bounds the work spent on a garbage line).
 constexpr size_t kMaxXyzColumns = 4096;
 
-/// Parses the numbers of one XYZ data line, appending them to `values`; returns their count.
-/// `expected` = 0: any count up to kMaxXyzColumns; else exactly that many (a ragged line is an
-/// InputError naming `path` and `line_no`).
-size_t parse_xyz_line(const std::string& path, std::string_view line, size_t line_no,
-                      size_t expected, std::vector<double>& values);
+/// The XYZ line rules, the one copy that read_xyz and the streaming reader share: blank lines
+/// and '#' comments are skipped; a lone non-negative integer on the first data line is a .pts
+/// point count (skipped, checked by count_mismatch()); the first data line fixes the columns (at
+/// least 3, at most kMaxXyzColumns) and every later one must have as many. Malformed lines are
+/// InputErrors naming the file and the line. The state carries over from one LineCursor to the
+/// next, so a file may be fed in chunks of whole lines (line numbers continuing).
+class XyzLines {
+ public:
+  /// `columns` > 0: the columns are already known (a later pass over the same bytes).
+  explicit XyzLines(std::string path, size_t columns = 0)
+      : path_(std::move(path)), columns_(columns) {}
 
-/// True when the line is a lone non-negative integer (a .pts point count).
-bool is_xyz_count_line(std::string_view line, uint64_t& count);
+  /// Moves to the next data line of `lines` (the count line skipped); false at their end.
+  bool next(LineCursor& lines);
+  /// Parses the data line next() moved to into `values` (cleared first); the first one fixes
+  /// the columns.
+  void parse(std::vector<double>& values);
+  /// Columns per data line; 0 until the first data line is parsed.
+  size_t columns() const { return columns_; }
+  /// Throws InputError when no data line was parsed (only blank or comment lines).
+  void require_points() const;
+  /// The note when a point count line disagrees with `points` read; "" otherwise.
+  std::string count_mismatch(uint64_t points) const;
 
-/// Next line with data (not blank, not a '#' comment); false at the end.
-bool next_xyz_data_line(LineCursor& lines, std::string_view& line);
+ private:
+  std::string path_;
+  size_t columns_;
+  std::string_view line_;
+  size_t line_no_ = 0;
+  bool first_ = true;
+  bool has_declared_ = false;
+  uint64_t declared_ = 0;
+};
 
 // ---------------------------------------------------------------------------------------------
 // Scalars

@@ -37,11 +37,11 @@ void store(Cloud& cloud, size_t i, const double* row, size_t columns) {
   }
 }
 
-}  // namespace
-
 // Parses the numbers of one data line, appending them to `values`; returns their count.
+// `expected` = 0: any count up to kMaxXyzColumns; else exactly that many (a ragged line is an
+// InputError naming `path` and `line_no`).
 size_t parse_xyz_line(const std::string& path, std::string_view line, size_t line_no,
-                  size_t expected, std::vector<double>& values) {
+                      size_t expected, std::vector<double>& values) {
   Tokens tokens(line);
   std::string_view t;
   size_t n = 0;
@@ -51,16 +51,17 @@ size_t parse_xyz_line(const std::string& path, std::string_view line, size_t lin
     double v = 0;
     if (!parse_double(t, v))
       input_error(path, "malformed number " + quote_token(t) + " in column " + std::to_string(n) +
-                                 at_line(line_no));
+                            at_line(line_no));
     values.push_back(v);
   }
   if (n > limit && !expected)
-    input_error(path, "more than " + std::to_string(kMaxXyzColumns) + " columns" + at_line(line_no));
+    input_error(path,
+                "more than " + std::to_string(kMaxXyzColumns) + " columns" + at_line(line_no));
   if (expected && n != expected) {
     while (tokens.next(t)) ++n;
     input_error(path, "ragged line: " + std::to_string(n) + " columns, expected " +
-                               std::to_string(expected) + " like the first data line" +
-                               at_line(line_no));
+                          std::to_string(expected) + " like the first data line" +
+                          at_line(line_no));
   }
   return n;
 }
@@ -82,57 +83,73 @@ bool next_xyz_data_line(LineCursor& lines, std::string_view& line) {
   return false;
 }
 
+}  // namespace
+
+bool XyzLines::next(LineCursor& lines) {
+  while (next_xyz_data_line(lines, line_)) {
+    line_no_ = lines.line_number();
+    if (first_ && is_xyz_count_line(line_, declared_)) {
+      first_ = false;
+      has_declared_ = true;
+      continue;
+    }
+    first_ = false;
+    return true;
+  }
+  return false;
+}
+
+void XyzLines::parse(std::vector<double>& values) {
+  values.clear();
+  if (columns_ != 0) {
+    parse_xyz_line(path_, line_, line_no_, columns_, values);
+    return;
+  }
+  const size_t got = parse_xyz_line(path_, line_, line_no_, 0, values);
+  if (got < 3)
+    input_error(path_, "expected at least 3 columns (x y z), found " + std::to_string(got) +
+                           at_line(line_no_));
+  columns_ = got;
+}
+
+void XyzLines::require_points() const {
+  if (columns_ == 0) input_error(path_, "no points (only blank or comment lines)");
+}
+
+std::string XyzLines::count_mismatch(uint64_t points) const {
+  if (!has_declared_ || declared_ == points) return std::string();
+  return "point count line says " + std::to_string(declared_) + " but the file has " +
+         std::to_string(points) + " points";
+}
+
 // Two passes over the bytes: the first finds the columns (first data line) and counts the data
 // lines, the second parses every line straight into the cloud, so memory is the file plus the
 // cloud (no growing intermediate array of every value: at 10M points that was 2-3x the cloud).
 Cloud read_xyz(const FileBytes& file, std::vector<std::string>* warnings) {
-  size_t columns = 0, count = 0;
-  uint64_t declared = 0;
-  bool has_declared = false;
+  XyzLines scan(file.path);
+  size_t count = 0;
   {
     LineCursor lines(file.bytes, 0, 1);
-    std::string_view line;
     std::vector<double> values;
-    bool first = true;
-    while (next_xyz_data_line(lines, line)) {
-      if (first && is_xyz_count_line(line, declared)) {
-        first = false;
-        has_declared = true;
-        continue;
-      }
-      first = false;
-      if (columns == 0) {
-        const size_t n = lines.line_number();
-        const size_t got = parse_xyz_line(file.path, line, n, 0, values);
-        if (got < 3)
-          input_error(file.path, "expected at least 3 columns (x y z), found " +
-                                     std::to_string(got) + at_line(n));
-        columns = got;
-      }
+    while (scan.next(lines)) {
+      if (scan.columns() == 0) scan.parse(values);
       ++count;
     }
   }
-  if (columns == 0) input_error(file.path, "no points (only blank or comment lines)");
+  scan.require_points();
+  const size_t columns = scan.columns();
   Cloud cloud = allocate(count, columns);
+  XyzLines rows(file.path, columns);
   LineCursor lines(file.bytes, 0, 1);
-  std::string_view line;
   std::vector<double> row;
   row.reserve(columns);
-  bool first = true;
   size_t i = 0;
-  while (next_xyz_data_line(lines, line)) {
-    if (first && has_declared) {
-      first = false;
-      continue;
-    }
-    first = false;
-    row.clear();
-    parse_xyz_line(file.path, line, lines.line_number(), columns, row);
+  while (rows.next(lines)) {
+    rows.parse(row);
     store(cloud, i++, row.data(), columns);
   }
-  if (has_declared && declared != uint64_t(cloud.size()))
-    warn(warnings, "point count line says " + std::to_string(declared) + " but the file has " +
-                       std::to_string(cloud.size()) + " points");
+  const std::string mismatch = scan.count_mismatch(uint64_t(cloud.size()));
+  if (!mismatch.empty()) warn(warnings, mismatch);
   return cloud;
 }
 

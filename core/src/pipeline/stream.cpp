@@ -8,14 +8,15 @@
 //     all of them gives the whole cloud's noise level, spacing and neighbourhood radius;
 //  4. (MFPS, NH-Net) every point's surface variation at the smooth size, tile by tile with a
 //     halo, for the whole cloud's candidate threshold (feature_detection.hpp);
-//  5. the estimator (estimate_cloud) on each tile plus its halo (points of the neighbouring tiles' files
-//     within tile_halo radii of the largest neighbourhood), with the whole cloud's decisions;
-//     the tile's own results go to its result file in input order;
+//  5. the estimator (estimate_cloud) on each tile plus its halo (points of the neighbouring
+//     tiles' files within tile_halo radii of the largest neighbourhood), with the whole cloud's
+//     decisions; the tile's own results go to its result file in input order;
 //  6. read the input again and write the output in the input's order (temporary file +
 //     rename), each point's normal taken from its tile's result file (the routing is a pure
 //     function of the coordinates), oriented chunk by chunk (keep / viewpoint).
 // Memory: one tile's working set, the plan sample, the probe rows and at most variation_sample
-// floats; disk: 32 bytes per point (tiles) + 12 (results).
+// floats; disk: 32 bytes per point (tiles) + 12 (results). The tiles on disk are
+// stream_tiles.cpp; the XYZ line rules are read_xyz's (io_detail::XyzLines).
 #include "nhnet/pipeline/stream.hpp"
 
 #include "io/detail.hpp"
@@ -28,12 +29,12 @@
 #include "nhnet/geometry/scales.hpp"
 #include "util/parallel.hpp"
 #include "util/stats.hpp"
+#include "pipeline/stream_tiles.hpp"
 #include "pipeline/estimator.hpp"
-
-#include <unistd.h>
 
 #include <algorithm>
 #include <array>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -47,15 +48,102 @@ namespace {
 
 namespace fs = std::filesystem;
 using io_detail::input_error;
+using stream_detail::Appender;
+using stream_detail::Cursor;
+using stream_detail::Frame;
+using stream_detail::Plan;
+using stream_detail::TempDir;
+using stream_detail::TilePoints;
+using stream_detail::Tiles;
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
 /// True when the row's x y z (its first three values) are all finite.
-bool finite_xyz(const double* v) { return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]); }
+bool finite_xyz(const double* v) {
+  return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]);
+}
 
 // ---------------------------------------------------------------------------------------------
-// Input: the XYZ text file, chunk by chunk (io_xyz.cpp's line rules).
+// Input: the XYZ text file, chunk by chunk (the line rules are read_xyz's: io_detail::XyzLines).
 
+/// A text file read in chunks of whole lines, numbering the lines on across the chunks.
+class TextChunks {
+ public:
+  /// Opens `path` (`size` bytes, for the progress).
+  TextChunks(const std::string& path, uintmax_t size) : path_(path), size_(size) {
+    f_ = std::fopen(path_.c_str(), "rb");
+    if (!f_) input_error(path_, std::string("cannot open: ") + std::strerror(errno));
+    chunk_.resize(kChunk);
+  }
+  ~TextChunks() { std::fclose(f_); }
+  TextChunks(const TextChunks&) = delete;
+  TextChunks& operator=(const TextChunks&) = delete;
+
+  /// Points `lines` at the next chunk's whole lines (at the end of the file: all that is left);
+  /// false once the file is done.
+  bool next(io_detail::LineCursor& lines) {
+    // Line numbers continue after the consumed part (count its terminators once more).
+    line_no_ = count_lines(buf_, cut_, line_no_);
+    buf_.erase(0, cut_);
+    cut_ = 0;
+    if (eof_) return false;
+    const size_t got = std::fread(chunk_.data(), 1, chunk_.size(), f_);
+    if (got < chunk_.size()) {
+      if (std::ferror(f_)) input_error(path_, "read error");
+      eof_ = true;
+    }
+    done_bytes_ += got;
+    buf_.append(chunk_.data(), got);
+    cut_ = whole_lines();
+    lines = io_detail::LineCursor(std::string_view(buf_.data(), cut_), 0, line_no_);
+    return true;
+  }
+
+  /// Fraction of the file's bytes read so far.
+  double fraction() const { return size_ ? double(done_bytes_) / double(size_) : 1.0; }
+
+ private:
+  static constexpr size_t kChunk = size_t(16) << 20;
+  static constexpr size_t kMaxLine = size_t(64) << 20;
+
+  // End of the whole lines in the buffer: up to the last '\n' (a '\r' at the very end may be
+  // half of a "\r\n" that the next chunk completes); everything at the end of the file.
+  size_t whole_lines() const {
+    if (eof_) return buf_.size();
+    size_t cut = 0;
+    const size_t nl = buf_.rfind('\n');
+    if (nl != std::string::npos) {
+      cut = nl + 1;
+    } else {
+      const size_t cr = buf_.size() > 1 ? buf_.rfind('\r', buf_.size() - 2) : std::string::npos;
+      cut = cr == std::string::npos ? 0 : cr + 1;
+    }
+    if (cut == 0 && buf_.size() > kMaxLine)
+      input_error(path_, "a line longer than " + std::to_string(kMaxLine) + " bytes" +
+                             " (line " + std::to_string(line_no_) + ")");
+    return cut;
+  }
+
+  // Line number after buf[0, cut) that starts at line `first`: "\r\n", "\r", "\n" count once.
+  static size_t count_lines(const std::string& buf, size_t cut, size_t first) {
+    size_t n = first;
+    for (size_t i = 0; i < cut; ++i) {
+      if (buf[i] == '\n') ++n;
+      else if (buf[i] == '\r' && !(i + 1 < cut && buf[i + 1] == '\n')) ++n;
+    }
+    return n;
+  }
+
+  const std::string& path_;
+  uintmax_t size_;
+  std::FILE* f_ = nullptr;
+  std::vector<char> chunk_;
+  std::string buf_;
+  size_t cut_ = 0, line_no_ = 1, done_bytes_ = 0;
+  bool eof_ = false;
+};
+
+/// The XYZ input, read whole once per pass.
 class XyzStream {
  public:
   explicit XyzStream(std::string path) : path_(std::move(path)) {
@@ -68,73 +156,22 @@ class XyzStream {
   /// bytes) after each chunk (returns false to stop). Returns the number of data lines.
   template <class Row, class Report>
   int64_t for_each(Row&& row, Report&& progress) {
-    std::FILE* f = std::fopen(path_.c_str(), "rb");
-    if (!f) input_error(path_, std::string("cannot open: ") + std::strerror(errno));
-    struct Closer {
-      std::FILE* f;
-      ~Closer() { std::fclose(f); }
-    } closer{f};
-    std::string buf;
+    TextChunks chunks(path_, size_);
+    io_detail::XyzLines xyz(path_, columns_);
+    io_detail::LineCursor lines(std::string_view(), 0, 1);
     std::vector<double> values;
-    size_t line_no = 1, done_bytes = 0;
     int64_t index = 0;
-    bool first = true, has_declared = false;
-    uint64_t declared = 0;
-    std::vector<char> chunk(kChunk);
-    for (bool eof = false; !eof;) {
-      const size_t got = std::fread(chunk.data(), 1, chunk.size(), f);
-      if (got < chunk.size()) {
-        if (std::ferror(f)) input_error(path_, "read error");
-        eof = true;
+    while (chunks.next(lines)) {
+      while (xyz.next(lines)) {
+        xyz.parse(values);
+        row(index++, values.data(), xyz.columns());
       }
-      done_bytes += got;
-      buf.append(chunk.data(), got);
-      // Lines complete in this buffer: up to the last '\n' (a '\r' at the very end may be half
-      // of a "\r\n" that the next chunk completes).
-      size_t cut = buf.size();
-      if (!eof) {
-        const size_t nl = buf.rfind('\n');
-        if (nl != std::string::npos) {
-          cut = nl + 1;
-        } else {
-          const size_t cr = buf.size() > 1 ? buf.rfind('\r', buf.size() - 2) : std::string::npos;
-          cut = cr == std::string::npos ? 0 : cr + 1;
-        }
-        if (cut == 0 && buf.size() > kMaxLine)
-          input_error(path_, "a line longer than " + std::to_string(kMaxLine) + " bytes" +
-                                 " (line " + std::to_string(line_no) + ")");
-      }
-      io_detail::LineCursor lines(std::string_view(buf.data(), cut), 0, line_no);
-      std::string_view line;
-      while (io_detail::next_xyz_data_line(lines, line)) {
-        if (first && io_detail::is_xyz_count_line(line, declared)) {
-          first = false;
-          has_declared = true;
-          continue;
-        }
-        first = false;
-        values.clear();
-        if (columns_ == 0) {
-          const size_t got_cols = io_detail::parse_xyz_line(path_, line, lines.line_number(), 0, values);
-          if (got_cols < 3)
-            input_error(path_, "expected at least 3 columns (x y z), found " +
-                                   std::to_string(got_cols) + " (line " +
-                                   std::to_string(lines.line_number()) + ")");
-          columns_ = got_cols;
-        } else {
-          io_detail::parse_xyz_line(path_, line, lines.line_number(), columns_, values);
-        }
-        row(index++, values.data(), columns_);
-      }
-      // Line numbers continue after the consumed part (count its terminators once more).
-      line_no = count_lines(buf, cut, line_no);
-      buf.erase(0, cut);
-      if (!progress(size_ ? double(done_bytes) / double(size_) : 1.0)) return index;
+      columns_ = xyz.columns();
+      if (!progress(chunks.fraction())) return index;
     }
-    if (columns_ == 0) input_error(path_, "no points (only blank or comment lines)");
-    if (has_declared && declared != uint64_t(index))
-      declared_mismatch_ = "point count line says " + std::to_string(declared) +
-                           " but the file has " + std::to_string(index) + " points";
+    xyz.require_points();
+    const std::string mismatch = xyz.count_mismatch(uint64_t(index));
+    if (!mismatch.empty()) declared_mismatch_ = mismatch;
     return index;
   }
 
@@ -144,19 +181,6 @@ class XyzStream {
   const std::string& declared_mismatch() const { return declared_mismatch_; }
 
  private:
-  static constexpr size_t kChunk = size_t(16) << 20;
-  static constexpr size_t kMaxLine = size_t(64) << 20;
-
-  // Line number after buf[0, cut) that starts at line `first`: "\r\n", "\r", "\n" count once.
-  static size_t count_lines(const std::string& buf, size_t cut, size_t first) {
-    size_t n = first;
-    for (size_t i = 0; i < cut; ++i) {
-      if (buf[i] == '\n') ++n;
-      else if (buf[i] == '\r' && !(i + 1 < cut && buf[i + 1] == '\n')) ++n;
-    }
-    return n;
-  }
-
   std::string path_;
   uintmax_t size_ = 0;
   size_t columns_ = 0;
@@ -164,251 +188,7 @@ class XyzStream {
 };
 
 // ---------------------------------------------------------------------------------------------
-// The tile plan: a kd-tree of split planes placed on a sample.
-
-struct Frame {
-  Eigen::RowVector3d centre = Eigen::RowVector3d::Zero();
-  double scale = 1;  // frame length = scale x input length (a power of two)
-  Eigen::RowVector3d to_frame(const double* p) const {
-    return (Eigen::RowVector3d(p[0], p[1], p[2]) - centre) * scale;
-  }
-};
-
-struct Plan {
-  struct Node {
-    int axis = -1;     // -1: leaf
-    double value = 0;  // coordinate < value: left
-    int left = -1, right = -1, leaf = -1;
-  };
-  std::vector<Node> nodes;
-  // Leaf cells (frame units; +-inf where unbounded).
-  std::vector<Eigen::RowVector3d> cell_lo, cell_hi;
-
-  int route(const Eigen::RowVector3d& p) const {
-    int n = 0;
-    while (nodes[size_t(n)].axis >= 0)
-      n = p[nodes[size_t(n)].axis] < nodes[size_t(n)].value ? nodes[size_t(n)].left
-                                                           : nodes[size_t(n)].right;
-    return nodes[size_t(n)].leaf;
-  }
-
-  // Splits sample rows order[begin, end) into `parts` leaves (detail::split_range, the in-memory
-  // tiling's rule); points at a cut's value go right.
-  int build(const Points& s, std::vector<int64_t>& order, int64_t begin, int64_t end, int64_t parts,
-            Eigen::RowVector3d lo_cell, Eigen::RowVector3d hi_cell) {
-    const int id = int(nodes.size());
-    nodes.emplace_back();
-    if (parts <= 1 || end - begin < 2) {
-      nodes[size_t(id)].leaf = int(cell_lo.size());
-      cell_lo.push_back(lo_cell);
-      cell_hi.push_back(hi_cell);
-      return id;
-    }
-    const detail::RangeCut cut = detail::split_range(s, order, begin, end, parts);
-    const int axis = cut.axis;
-    const double value = cut.value;
-    const int64_t mid = cut.mid, left = parts / 2;
-    Eigen::RowVector3d hi_left = hi_cell, lo_right = lo_cell;
-    hi_left[axis] = value;
-    lo_right[axis] = value;
-    const int l = build(s, order, begin, mid, left, lo_cell, hi_left);
-    const int r = build(s, order, mid, end, parts - left, lo_right, hi_cell);
-    nodes[size_t(id)].axis = axis;
-    nodes[size_t(id)].value = value;
-    nodes[size_t(id)].left = l;
-    nodes[size_t(id)].right = r;
-    return id;
-  }
-
-  size_t tiles() const { return cell_lo.size(); }
-};
-
-// ---------------------------------------------------------------------------------------------
-// Temporary files.
-
-/// A fresh folder `<parent>/.nhnet-stream-<pid>-<random>`, removed with everything in it.
-class TempDir {
- public:
-  explicit TempDir(const fs::path& parent) {
-    std::random_device device;
-    std::error_code ec;
-    for (int attempt = 0; attempt < 16; ++attempt) {
-      const fs::path p = parent / (".nhnet-stream-" + std::to_string(::getpid()) + "-" +
-                                   std::to_string((uint64_t(device()) << 32) ^ device()));
-      if (fs::create_directory(p, ec)) {
-        path_ = p;
-        return;
-      }
-      if (ec) break;
-    }
-    throw OutputError(parent.string() + ": cannot create a temporary folder for the tiles" +
-                      (ec ? ": " + ec.message() : std::string()));
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-  fs::path file(const std::string& name) const { return path_ / name; }
-
- private:
-  fs::path path_;
-};
-
-/// Appends fixed-size records to a file, a buffer at a time (the file is opened per flush, so
-/// thousands of tiles need no open descriptors).
-class Appender {
- public:
-  explicit Appender(fs::path path) : path_(std::move(path)) {}
-  void add(const void* data, size_t size) {
-    buf_.append(static_cast<const char*>(data), size);
-    if (buf_.size() >= kBuffer) flush();
-  }
-  void flush() {
-    if (buf_.empty()) return;
-    std::FILE* f = std::fopen(path_.c_str(), "ab");
-    const bool ok = f && std::fwrite(buf_.data(), 1, buf_.size(), f) == buf_.size();
-    if (f && std::fclose(f) != 0) fail();
-    if (!ok) fail();
-    buf_.clear();
-  }
-
- private:
-  static constexpr size_t kBuffer = size_t(1) << 16;
-  [[noreturn]] void fail() const {
-    throw OutputError(path_.string() + ": cannot write a temporary tile file: " +
-                      std::strerror(errno) + " (is the disk full? set the temporary folder)");
-  }
-  fs::path path_;
-  std::string buf_;
-};
-
-/// Reads a whole temporary file.
-std::string slurp(const fs::path& path) {
-  std::string out;
-  std::FILE* f = std::fopen(path.c_str(), "rb");
-  if (!f) return out;  // a tile without points has no file
-  char buf[1 << 16];
-  for (size_t n; (n = std::fread(buf, 1, sizeof buf, f)) > 0;) out.append(buf, n);
-  const bool bad = std::ferror(f);
-  std::fclose(f);
-  if (bad) throw InputError(path.string() + ": cannot read a temporary tile file");
-  return out;
-}
-
-/// Sequential reader of fixed-size records, reopening the file per refill.
-class Cursor {
- public:
-  Cursor(fs::path path, size_t record) : path_(std::move(path)), record_(record) {}
-  const char* next() {
-    if (pos_ + record_ > buf_.size()) refill();
-    const char* p = buf_.data() + pos_;
-    pos_ += record_;
-    return p;
-  }
-
- private:
-  void refill() {
-    buf_.erase(0, pos_);
-    pos_ = 0;
-    std::FILE* f = std::fopen(path_.c_str(), "rb");
-    if (!f || std::fseek(f, long(offset_), SEEK_SET) != 0) {
-      if (f) std::fclose(f);
-      throw InputError(path_.string() + ": cannot read a temporary result file");
-    }
-    char tmp[1 << 16];
-    const size_t n = std::fread(tmp, 1, sizeof tmp, f);
-    std::fclose(f);
-    offset_ += n;
-    buf_.append(tmp, n);
-    if (buf_.size() < record_)
-      throw InputError(path_.string() + ": temporary result file ends early");
-  }
-  fs::path path_;
-  size_t record_;
-  std::string buf_;
-  size_t pos_ = 0;
-  uint64_t offset_ = 0;
-};
-
-struct PointRecord {
-  int64_t row;
-  double p[3];
-};
-
-struct Box {
-  Eigen::RowVector3d lo = Eigen::RowVector3d::Constant(kInf);
-  Eigen::RowVector3d hi = Eigen::RowVector3d::Constant(-kInf);
-  bool meets(const Box& o, double margin) const {
-    return ((lo.array() - margin) <= o.hi.array()).all() && ((hi.array() + margin) >= o.lo.array()).all();
-  }
-};
-
-/// A tile's points: its own (first `own`, input order) then its halo.
-struct TilePoints {
-  Points pts;
-  std::vector<int64_t> rows;
-  size_t own = 0;
-};
-
-class Tiles {
- public:
-  Tiles(const TempDir& dir, size_t count) : dir_(dir), boxes_(count), counts_(count, 0) {
-    for (size_t t = 0; t < count; ++t) out_.emplace_back(point_file(t));
-  }
-  void add(int t, int64_t row, const Eigen::RowVector3d& p) {
-    const PointRecord r{row, {p[0], p[1], p[2]}};
-    out_[size_t(t)].add(&r, sizeof r);
-    boxes_[size_t(t)].lo = boxes_[size_t(t)].lo.cwiseMin(p);
-    boxes_[size_t(t)].hi = boxes_[size_t(t)].hi.cwiseMax(p);
-    ++counts_[size_t(t)];
-  }
-  void finish() {
-    for (Appender& a : out_) a.flush();
-    out_.clear();
-  }
-  size_t size() const { return counts_.size(); }
-  int64_t count(size_t t) const { return counts_[t]; }
-
-  /// Tile t's own points and every point of the other tiles within `halo` of its box.
-  TilePoints load(size_t t, double halo) const {
-    TilePoints tp;
-    std::vector<Eigen::RowVector3d> p;
-    append(tp, p, t, nullptr, 0);
-    tp.own = tp.rows.size();
-    if (halo > 0)
-      for (size_t u = 0; u < size(); ++u)
-        if (u != t && counts_[u] > 0 && boxes_[u].meets(boxes_[t], halo)) append(tp, p, u, &boxes_[t], halo);
-    tp.pts.resize(Eigen::Index(p.size()), 3);
-    for (size_t i = 0; i < p.size(); ++i) tp.pts.row(Eigen::Index(i)) = p[i];
-    return tp;
-  }
-
-  fs::path result_file(size_t t) const { return dir_.file("result-" + std::to_string(t)); }
-
- private:
-  fs::path point_file(size_t t) const { return dir_.file("tile-" + std::to_string(t)); }
-  void append(TilePoints& tp, std::vector<Eigen::RowVector3d>& p, size_t u, const Box* near,
-              double halo) const {
-    const std::string bytes = slurp(point_file(u));
-    const size_t n = bytes.size() / sizeof(PointRecord);
-    for (size_t i = 0; i < n; ++i) {
-      PointRecord r;
-      std::memcpy(&r, bytes.data() + i * sizeof r, sizeof r);
-      const Eigen::RowVector3d q(r.p[0], r.p[1], r.p[2]);
-      if (near && !(((q.array() >= near->lo.array() - halo) && (q.array() <= near->hi.array() + halo)).all()))
-        continue;
-      p.push_back(q);
-      tp.rows.push_back(r.row);
-    }
-  }
-
-  const TempDir& dir_;
-  std::vector<Box> boxes_;
-  std::vector<int64_t> counts_;
-  std::vector<Appender> out_;
-};
+// Checks.
 
 /// Output format from the extension: PLY or XYZ text (PCD is not written in stream mode).
 bool output_is_ply(const std::string& output) {
@@ -436,10 +216,10 @@ void check_xyz_input(const std::string& input) {
                          " file: process it without streaming, or convert it to .xyz");
 }
 
-}  // namespace
-
-StreamResult estimate_stream(const std::string& input, const std::string& output,
-                             const StreamOptions& options) {
+/// Refuses the options and the files that streaming cannot take; returns whether the output is
+/// PLY (else XYZ text).
+bool check_stream(const std::string& input, const std::string& output,
+                  const StreamOptions& options) {
   const EstimateOptions& eo = options.estimate;
   detail::check_options(eo);
   if (eo.tiles.points <= 0) throw InvalidOptions("streaming needs tile points > 0");
@@ -450,77 +230,103 @@ StreamResult estimate_stream(const std::string& input, const std::string& output
     throw InvalidOptions("plan and variation samples must be at least 1000 points");
   const bool ply = output_is_ply(output);
   check_xyz_input(input);
-  {
-    std::error_code ec;
-    if (fs::equivalent(input, output, ec))
-      throw InvalidOptions(output + ": the output would replace the input; choose another name");
-  }
-  // The output's temporary file first: an unwritable folder fails before any work.
-  io_detail::AtomicFile file(output);
-  detail::start_threads(eo.run.threads);
-  const RunContext& run = eo.run;
-  detail::Progress top(run.progress);
-  StreamResult res;
+  std::error_code ec;
+  if (fs::equivalent(input, output, ec))
+    throw InvalidOptions(output + ": the output would replace the input; choose another name");
+  return ply;
+}
 
-  // 1. Scan: count, box, reservoir sample, whether the coordinates fit float.
-  XyzStream in(input);
+// ---------------------------------------------------------------------------------------------
+// Passes 1 and 2: the plan and the tile files.
+
+/// Pass 1's findings over the finite points: count, box, reservoir sample for the plan, and
+/// whether every coordinate (finite or not) is exact in float.
+struct Scan {
+  explicit Scan(std::mt19937_64::result_type seed) : rng(seed) {}
+
+  /// Takes one input row into the counts, the box and a sample of at most `keep` points.
+  void add(const double* v, int64_t keep) {
+    for (int k = 0; k < 3; ++k)
+      fits_float = fits_float && (std::isnan(v[k]) || double(float(v[k])) == v[k]);
+    if (!finite_xyz(v)) return;
+    const Eigen::RowVector3d p(v[0], v[1], v[2]);
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+    if (int64_t(sample.size()) < keep) {
+      sample.push_back({v[0], v[1], v[2]});
+    } else {
+      const uint64_t j = rng() % uint64_t(finite + 1);
+      if (j < uint64_t(keep)) sample[size_t(j)] = {v[0], v[1], v[2]};
+    }
+    ++finite;
+  }
+
   Eigen::RowVector3d lo = Eigen::RowVector3d::Constant(kInf), hi = -lo;
   std::vector<std::array<double, 3>> sample;
-  std::mt19937_64 rng(eo.mfps.seed);
+  std::mt19937_64 rng;
   int64_t finite = 0;
   bool fits_float = true;
-  if (run.progress) top.stage("reading", 0, 0.05);
+};
+
+/// Pass 1: reads every point for the counts, the box and the plan's sample; notes the input's
+/// warnings in `res` and refuses fewer than 3 finite points.
+Scan scan_input(XyzStream& in, const StreamOptions& options, detail::Progress& top,
+                StreamResult& res) {
+  Scan scan(options.estimate.mfps.seed);
+  if (options.estimate.run.progress) top.stage("reading", 0, 0.05);
   res.points = in.for_each(
-      [&](int64_t, const double* v, size_t) {
-        for (int k = 0; k < 3; ++k) fits_float = fits_float && (std::isnan(v[k]) || double(float(v[k])) == v[k]);
-        if (!finite_xyz(v)) return;
-        const Eigen::RowVector3d p(v[0], v[1], v[2]);
-        lo = lo.cwiseMin(p);
-        hi = hi.cwiseMax(p);
-        if (int64_t(sample.size()) < options.plan_sample) {
-          sample.push_back({v[0], v[1], v[2]});
-        } else {
-          const uint64_t j = rng() % uint64_t(finite + 1);
-          if (j < uint64_t(options.plan_sample)) sample[size_t(j)] = {v[0], v[1], v[2]};
-        }
-        ++finite;
-      },
+      [&](int64_t, const double* v, size_t) { scan.add(v, options.plan_sample); },
       [&](double f) { return top.report(f); });
   top.throw_if_cancelled();
   if (!in.declared_mismatch().empty()) res.warnings.push_back(in.declared_mismatch());
-  if (finite < res.points)
-    res.warnings.push_back(std::to_string(res.points - finite) +
+  if (scan.finite < res.points)
+    res.warnings.push_back(std::to_string(res.points - scan.finite) +
                            " non-finite points skipped (reported as failed)");
-  if (finite < 3)
-    throw UnprocessableInput("only " + std::to_string(finite) + " finite points; at least 3 are needed");
+  if (scan.finite < 3)
+    throw UnprocessableInput("only " + std::to_string(scan.finite) +
+                             " finite points; at least 3 are needed");
   if (in.columns() > 6 || in.columns() == 4 || in.columns() == 5)
     res.warnings.push_back("streaming writes x y z nx ny nz only: the input's other " +
                            std::to_string(in.columns() - (in.columns() >= 6 ? 6 : 3)) +
                            " columns are not carried over");
+  return scan;
+}
 
-  // The frame: centred on the box, scaled by a power of two into [-2, 2) (see normalise()).
+/// The tiles' frame: centred on the box, scaled by a power of two into [-2, 2) (see
+/// normalise()).
+Frame frame_of(const Scan& scan) {
   Frame frame;
-  frame.centre = (lo + hi) / 2;
-  const double half = ((hi - lo) / 2).maxCoeff();
+  frame.centre = (scan.lo + scan.hi) / 2;
+  const double half = ((scan.hi - scan.lo) / 2).maxCoeff();
   if (half > 0 && std::isfinite(half)) frame.scale = std::ldexp(1.0, -std::ilogb(half));
+  return frame;
+}
 
-  // 2. Plan and bin.
-  Points s(Eigen::Index(sample.size()), 3);
-  for (size_t i = 0; i < sample.size(); ++i) s.row(Eigen::Index(i)) = frame.to_frame(sample[i].data());
-  std::vector<std::array<double, 3>>().swap(sample);
+/// The tile plan: ceil(finite / tile_points) tiles placed on the sample (which is freed).
+Plan plan_tiles(Scan& scan, const Frame& frame, int64_t tile_points) {
+  Points s(Eigen::Index(scan.sample.size()), 3);
+  for (size_t i = 0; i < scan.sample.size(); ++i)
+    s.row(Eigen::Index(i)) = frame.to_frame(scan.sample[i].data());
+  std::vector<std::array<double, 3>>().swap(scan.sample);
   Plan plan;
-  {
-    std::vector<int64_t> order(size_t(s.rows()));
-    for (size_t i = 0; i < order.size(); ++i) order[i] = int64_t(i);
-    const int64_t parts = (finite + eo.tiles.points - 1) / eo.tiles.points;
-    plan.build(s, order, 0, int64_t(order.size()), parts, Eigen::RowVector3d::Constant(-kInf),
-               Eigen::RowVector3d::Constant(kInf));
-  }
-  const size_t ntiles = plan.tiles();
+  std::vector<int64_t> order(size_t(s.rows()));
+  for (size_t i = 0; i < order.size(); ++i) order[i] = int64_t(i);
+  const int64_t parts = (scan.finite + tile_points - 1) / tile_points;
+  plan.build(s, order, 0, int64_t(order.size()), parts, Eigen::RowVector3d::Constant(-kInf),
+             Eigen::RowVector3d::Constant(kInf));
+  return plan;
+}
+
+/// Folder of the temporary tile files: the option's, else the output's.
+fs::path temp_parent(const StreamOptions& options, const std::string& output) {
   const fs::path out_dir = fs::path(output).parent_path();
-  TempDir tmp(options.temp_dir.empty() ? (out_dir.empty() ? fs::path(".") : out_dir)
-                                       : fs::path(options.temp_dir));
-  Tiles tiles(tmp, ntiles);
+  return options.temp_dir.empty() ? (out_dir.empty() ? fs::path(".") : out_dir)
+                                  : fs::path(options.temp_dir);
+}
+
+/// Pass 2: appends every finite point (frame units) to its tile's file.
+void bin_points(XyzStream& in, const Frame& frame, const Plan& plan, Tiles& tiles,
+                const RunContext& run, detail::Progress& top) {
   if (run.progress) top.stage("binning", 0.05, 0.1);
   in.for_each(
       [&](int64_t row, const double* v, size_t) {
@@ -531,134 +337,202 @@ StreamResult estimate_stream(const std::string& input, const std::string& output
       [&](double f) { return top.report(f); });
   top.throw_if_cancelled();
   tiles.finish();
+}
 
-  // 3. Noise probe: every probe_step-th own point of each tile (the in-memory run probes every
-  // point of clouds up to kProbeAllPoints, an evenly spaced subset of larger ones), with a halo
-  // of twice a rough probe radius so that the neighbourhoods are complete. The rough radius comes
-  // from a sparse first pass on the tiles' own points, keeping only points whose neighbourhood
-  // lies inside their tile's cell.
-  if (run.progress) top.stage("noise probe", 0.1, 0.15);
-  std::vector<std::vector<float>> probe_d2;  // rows of squared distances (frame units)
-  std::vector<double> probe_residual;
-  int kprobe = 0;
-  const auto probe_pass = [&](int64_t step, double halo, double progress_begin, double progress_end) {
-    probe_d2.clear();
-    probe_residual.clear();
-    for (size_t t = 0; t < ntiles; ++t) {
-      if (tiles.count(t) < 3) continue;
-      const TilePoints tp = tiles.load(t, halo);
-      std::vector<std::string> ignored;
-      const detail::Canonical canon = detail::canonical_points(tp.pts, ignored);
-      const int k = int(std::min<Eigen::Index>(kNoiseProbeK, canon.pts.rows()));
-      if (k < 4) continue;
-      kprobe = kprobe ? std::min(kprobe, k) : k;
-      std::vector<int64_t> rows;
-      int64_t own = 0;
-      for (Eigen::Index i = 0; i < canon.pts.rows(); ++i)
-        if (size_t(canon.rows[size_t(i)]) < tp.own && own++ % step == 0) rows.push_back(i);
-      const Neighbors tree(canon.pts);
-      IndexMatrix idx;
-      DistanceMatrix d2;
-      tree.knn_rows(k, rows, idx, &d2, RunContext{run.threads, {}});
-      const Eigen::RowVector3d& clo = plan.cell_lo[t];
-      const Eigen::RowVector3d& chi = plan.cell_hi[t];
-      for (size_t r = 0; r < rows.size(); ++r) {
-        if (halo == 0) {
-          const Eigen::RowVector3d p = tp.pts.row(canon.rows[size_t(rows[r])]);
-          const double room = std::min((p - clo).minCoeff(), (chi - p).minCoeff());
-          const double reach = std::sqrt(double(d2(Eigen::Index(r), k - 1))) * canon.unit;
-          if (!(reach < room)) continue;  // the neighbourhood may cross into the next tile
-        }
-        Eigen::Vector3d ev;
-        fit_plane(canon.pts, &idx(Eigen::Index(r), 0), k, nullptr, &ev);
-        probe_residual.push_back(std::sqrt(std::max(0.0, ev[0])) * canon.unit);
-        std::vector<float> row(static_cast<size_t>(k));
-        for (int c = 0; c < k; ++c)
-          row[size_t(c)] = float(double(d2(Eigen::Index(r), c)) * canon.unit * canon.unit);
-        probe_d2.push_back(std::move(row));
-      }
-      top.report(progress_begin + (progress_end - progress_begin) * double(t + 1) / double(ntiles));
-      top.throw_if_cancelled();
+// ---------------------------------------------------------------------------------------------
+// Tile by tile: the whole cloud's decisions, then the normals.
+
+/// What the tile-by-tile steps share: the input's name, the tiles, their frame and plan, the
+/// threads and the progress.
+struct TileRun {
+  const std::string& input;
+  const Frame& frame;
+  const Plan& plan;
+  const Tiles& tiles;
+  const RunContext& run;
+  detail::Progress& top;
+};
+
+/// The noise probe's rows over the tiles: squared distances and plane residuals (frame units).
+struct ProbeRows {
+  std::vector<std::vector<float>> d2;
+  std::vector<double> residual;
+  /// Neighbours per row: the fewest of any probed tile so far (kept from pass to pass).
+  int k = 0;
+};
+
+/// Probes tile t (with a halo): every step-th own point; without a halo only those whose
+/// neighbourhood lies inside the tile's cell. False when the tile is too small to probe.
+bool probe_tile(const TileRun& tr, size_t t, int64_t step, double halo, ProbeRows& out) {
+  if (tr.tiles.count(t) < 3) return false;
+  const TilePoints tp = tr.tiles.load(t, halo);
+  std::vector<std::string> ignored;
+  const detail::Canonical canon = detail::canonical_points(tp.pts, ignored);
+  const int k = int(std::min<Eigen::Index>(kNoiseProbeK, canon.pts.rows()));
+  if (k < 4) return false;
+  out.k = out.k ? std::min(out.k, k) : k;
+  std::vector<int64_t> rows;
+  int64_t own = 0;
+  for (Eigen::Index i = 0; i < canon.pts.rows(); ++i)
+    if (size_t(canon.rows[size_t(i)]) < tp.own && own++ % step == 0) rows.push_back(i);
+  const Neighbors tree(canon.pts);
+  IndexMatrix idx;
+  DistanceMatrix d2;
+  tree.knn_rows(k, rows, idx, &d2, RunContext{tr.run.threads, {}});
+  const Eigen::RowVector3d& clo = tr.plan.cell_lo[t];
+  const Eigen::RowVector3d& chi = tr.plan.cell_hi[t];
+  for (size_t r = 0; r < rows.size(); ++r) {
+    if (halo == 0) {
+      const Eigen::RowVector3d p = tp.pts.row(canon.rows[size_t(rows[r])]);
+      const double room = std::min((p - clo).minCoeff(), (chi - p).minCoeff());
+      const double reach = std::sqrt(double(d2(Eigen::Index(r), k - 1))) * canon.unit;
+      if (!(reach < room)) continue;  // the neighbourhood may cross into the next tile
     }
-    if (probe_d2.empty())
-      throw UnprocessableInput(input + ": no point has a complete noise-probe neighbourhood");
-    DistanceMatrix d2(Eigen::Index(probe_d2.size()), kprobe);
-    for (size_t r = 0; r < probe_d2.size(); ++r)
-      for (int c = 0; c < kprobe; ++c) d2(Eigen::Index(r), c) = probe_d2[r][size_t(c)];
-    probe_d2.clear();
-    return detail::probe_from_rows(
-        d2, Eigen::Map<const Eigen::VectorXd>(probe_residual.data(), Eigen::Index(probe_residual.size())));
-  };
-  const detail::Probe rough =
-      probe_pass(std::max<int64_t>(1, finite / 20000), 0, 0, 0.2);
-  const detail::Probe probe =
-      probe_pass(std::max<int64_t>(1, finite / kProbeAllPoints), 2 * rough.far_radius, 0.2, 1);
-  const detail::TileSizes sizes = detail::tile_sizes(probe, eo, finite);
-  const ScaleChoice& choice = sizes.choice;
-  const auto radius = [&](int k) { return sizes.radius(k); };
-
-  EstimateOptions o = eo;
-  detail::TileOverrides ov;
-  ov.noise_ratio = probe.noise.ratio;
-  ov.spacing = probe.noise.spacing;  // frame units, as the tiles' coordinates
-  if (eo.method == Method::NhNet) o.model.loaded = model_for(eo.model, eo.run.threads);
-
-  // 4. The candidate threshold from the whole cloud's surface variations.
-  const double span1 = eo.method == Method::Pca ? 0.0 : 0.15;
-  if (eo.method != Method::Pca) {
-    if (run.progress) top.stage("surface variation", 0.15, 0.15 + span1);
-    const int64_t vstep = std::max<int64_t>(1, (finite + options.variation_sample - 1) / options.variation_sample);
-    std::vector<double> variation;
-    int64_t seen = 0;
-    for (size_t t = 0; t < ntiles; ++t) {
-      if (tiles.count(t) == 0) continue;
-      const TilePoints tp = tiles.load(t, eo.tiles.halo * radius(choice.k_smooth));
-      std::vector<std::string> ignored;
-      const detail::Canonical canon = detail::canonical_points(tp.pts, ignored);
-      const int k = int(std::min<Eigen::Index>(choice.k_smooth, canon.pts.rows()));
-      IndexMatrix knn;
-      Neighbors(canon.pts).knn_all(k, knn, nullptr, RunContext{run.threads, {}});
-      const PcaResult pca = pca_normals(canon.pts, knn, PcaOptions{k}, RunContext{run.threads, {}});
-      // Own points only, one value per distinct position (the in-memory run's canonical points).
-      for (Eigen::Index c = 0; c < canon.pts.rows(); ++c) {
-        if (size_t(canon.rows[size_t(c)]) >= tp.own) continue;
-        if (seen++ % vstep == 0) variation.push_back(pca.variation[c]);
-      }
-      top.report(double(t + 1) / double(ntiles));
-      top.throw_if_cancelled();
-    }
-    ov.variation_threshold =
-        detect_feature_candidates(Eigen::Map<const Eigen::VectorXd>(variation.data(), Eigen::Index(variation.size())))
-            .absolute_threshold;
+    Eigen::Vector3d ev;
+    fit_plane(canon.pts, &idx(Eigen::Index(r), 0), k, nullptr, &ev);
+    out.residual.push_back(std::sqrt(std::max(0.0, ev[0])) * canon.unit);
+    std::vector<float> row(static_cast<size_t>(k));
+    for (int c = 0; c < k; ++c)
+      row[size_t(c)] = float(double(d2(Eigen::Index(r), c)) * canon.unit * canon.unit);
+    out.d2.push_back(std::move(row));
   }
+  return true;
+}
 
-  // 5. Each tile with its halo; own results to the tile's result file (input order).
-  const double halo = eo.tiles.halo * radius(sizes.kneed);
-  const double begin = 0.15 + span1, span = (0.95 - begin) / double(ntiles);
+/// One probe pass over every tile (progress from `begin` to `end` of the stage): the probe of
+/// the rows it collects.
+detail::Probe probe_pass(const TileRun& tr, ProbeRows& rows, int64_t step, double halo,
+                         double begin, double end) {
+  rows.d2.clear();
+  rows.residual.clear();
+  const size_t ntiles = tr.plan.tiles();
+  for (size_t t = 0; t < ntiles; ++t) {
+    if (!probe_tile(tr, t, step, halo, rows)) continue;
+    tr.top.report(begin + (end - begin) * double(t + 1) / double(ntiles));
+    tr.top.throw_if_cancelled();
+  }
+  if (rows.d2.empty())
+    throw UnprocessableInput(tr.input + ": no point has a complete noise-probe neighbourhood");
+  DistanceMatrix d2(Eigen::Index(rows.d2.size()), rows.k);
+  for (size_t r = 0; r < rows.d2.size(); ++r)
+    for (int c = 0; c < rows.k; ++c) d2(Eigen::Index(r), c) = rows.d2[r][size_t(c)];
+  rows.d2.clear();
+  return detail::probe_from_rows(
+      d2, Eigen::Map<const Eigen::VectorXd>(rows.residual.data(),
+                                            Eigen::Index(rows.residual.size())));
+}
+
+/// The whole cloud's noise probe: every probe_step-th own point of each tile (the in-memory run
+/// probes every point of clouds up to kProbeAllPoints, an evenly spaced subset of larger ones),
+/// with a halo of twice a rough probe radius so that the neighbourhoods are complete. The rough
+/// radius comes from a sparse first pass on the tiles' own points, keeping only points whose
+/// neighbourhood lies inside their tile's cell.
+detail::Probe noise_probe(const TileRun& tr, int64_t finite) {
+  if (tr.run.progress) tr.top.stage("noise probe", 0.1, 0.15);
+  ProbeRows rows;
+  const detail::Probe rough =
+      probe_pass(tr, rows, std::max<int64_t>(1, finite / 20000), 0, 0, 0.2);
+  return probe_pass(tr, rows, std::max<int64_t>(1, finite / kProbeAllPoints),
+                    2 * rough.far_radius, 0.2, 1);
+}
+
+/// What every tile runs with: the options (the model loaded once) and the whole cloud's
+/// decisions.
+struct TileSetup {
+  EstimateOptions options;
+  detail::TileOverrides overrides;
+};
+
+/// The tiles' options and the whole cloud's noise level and spacing (frame units).
+TileSetup tile_setup(const EstimateOptions& eo, const detail::Probe& probe) {
+  TileSetup setup{eo, {}};
+  setup.overrides.noise_ratio = probe.noise.ratio;
+  setup.overrides.spacing = probe.noise.spacing;  // frame units, as the tiles' coordinates
+  if (eo.method == Method::NhNet)
+    setup.options.model.loaded = model_for(eo.model, eo.run.threads);
+  return setup;
+}
+
+/// Share of the progress that the surface variation stage takes (none for PCA).
+double variation_span(Method method) { return method == Method::Pca ? 0.0 : 0.15; }
+
+/// (MFPS, NH-Net) The candidate threshold from the whole cloud's surface variations at the
+/// smooth size: each tile's own points with a halo, an evenly spaced subset of at most
+/// variation_sample values.
+double variation_threshold(const TileRun& tr, const StreamOptions& options,
+                           const detail::TileSizes& sizes, int64_t finite) {
+  const EstimateOptions& eo = options.estimate;
+  if (tr.run.progress) tr.top.stage("surface variation", 0.15, 0.15 + variation_span(eo.method));
+  const int64_t vstep = std::max<int64_t>(
+      1, (finite + options.variation_sample - 1) / options.variation_sample);
+  const ScaleChoice& choice = sizes.choice;
+  const size_t ntiles = tr.plan.tiles();
+  std::vector<double> variation;
+  int64_t seen = 0;
+  for (size_t t = 0; t < ntiles; ++t) {
+    if (tr.tiles.count(t) == 0) continue;
+    const TilePoints tp = tr.tiles.load(t, eo.tiles.halo * sizes.radius(choice.k_smooth));
+    std::vector<std::string> ignored;
+    const detail::Canonical canon = detail::canonical_points(tp.pts, ignored);
+    const int k = int(std::min<Eigen::Index>(choice.k_smooth, canon.pts.rows()));
+    IndexMatrix knn;
+    Neighbors(canon.pts).knn_all(k, knn, nullptr, RunContext{tr.run.threads, {}});
+    const PcaResult pca =
+        pca_normals(canon.pts, knn, PcaOptions{k}, RunContext{tr.run.threads, {}});
+    // Own points only, one value per distinct position (the in-memory run's canonical points).
+    for (Eigen::Index c = 0; c < canon.pts.rows(); ++c) {
+      if (size_t(canon.rows[size_t(c)]) >= tp.own) continue;
+      if (seen++ % vstep == 0) variation.push_back(pca.variation[c]);
+    }
+    tr.top.report(double(t + 1) / double(ntiles));
+    tr.top.throw_if_cancelled();
+  }
+  return detect_feature_candidates(Eigen::Map<const Eigen::VectorXd>(
+                                       variation.data(), Eigen::Index(variation.size())))
+      .absolute_threshold;
+}
+
+/// Writes a tile's own points' normals (NaN where estimation failed), in input order, to its
+/// result file; adds their candidates to `res`. Returns how many failed.
+int64_t write_tile_result(const fs::path& file, size_t own, const EstimateResult& est,
+                          StreamResult& res) {
+  Appender out(file);
+  int64_t degenerate = 0;
+  for (size_t r = 0; r < own; ++r) {
+    float n[3];
+    for (int k = 0; k < 3; ++k)
+      n[k] = est.valid[r] ? float(est.normals(Eigen::Index(r), k)) : NAN;
+    out.add(n, sizeof n);
+    degenerate += est.valid[r] ? 0 : 1;
+    if (!est.candidate.empty()) res.candidates += est.candidate[r];
+  }
+  out.flush();
+  return degenerate;
+}
+
+/// The estimator on each tile plus its halo (`halo`, frame units) with `setup`; the own points'
+/// normals go to the tile's result file. `res` takes the first tile's sizes and device, every
+/// tile's other warnings once, and one count of the degenerate points.
+void estimate_tiles(const TileRun& tr, TileSetup setup, double halo, StreamResult& res) {
+  const size_t ntiles = tr.plan.tiles();
+  EstimateOptions& o = setup.options;
+  const double begin = 0.15 + variation_span(o.method), span = (0.95 - begin) / double(ntiles);
   std::set<std::string> seen_warnings(res.warnings.begin(), res.warnings.end());
   int64_t degenerate = 0;
   bool first_tile = true;
   for (size_t t = 0; t < ntiles; ++t) {
-    if (tiles.count(t) == 0) continue;
-    const TilePoints tp = tiles.load(t, halo);
-    o.run = detail::narrow(run, begin + span * double(t), begin + span * double(t + 1));
-    const EstimateResult tr = detail::estimate_cloud(tp.pts, o, ov);
-    Appender out(tiles.result_file(t));
-    for (size_t r = 0; r < tp.own; ++r) {
-      float n[3];
-      for (int k = 0; k < 3; ++k) n[k] = tr.valid[r] ? float(tr.normals(Eigen::Index(r), k)) : NAN;
-      out.add(n, sizeof n);
-      degenerate += tr.valid[r] ? 0 : 1;
-      if (!tr.candidate.empty()) res.candidates += tr.candidate[r];
-    }
-    out.flush();
+    if (tr.tiles.count(t) == 0) continue;
+    const TilePoints tp = tr.tiles.load(t, halo);
+    o.run = detail::narrow(tr.run, begin + span * double(t), begin + span * double(t + 1));
+    const EstimateResult est = detail::estimate_cloud(tp.pts, o, setup.overrides);
+    degenerate += write_tile_result(tr.tiles.result_file(t), tp.own, est, res);
     if (first_tile) {
-      res.k_used = tr.k_used;
-      res.scales_used = tr.scales_used;
-      res.device_used = tr.device_used;
+      res.k_used = est.k_used;
+      res.scales_used = est.scales_used;
+      res.device_used = est.device_used;
       first_tile = false;
     }
-    for (const std::string& w : tr.warnings)
+    for (const std::string& w : est.warnings)
       if (w.find("degenerate neighbourhood") == std::string::npos &&
           w.find("exact duplicate") == std::string::npos && seen_warnings.insert(w).second)
         res.warnings.push_back(w);
@@ -667,97 +541,176 @@ StreamResult estimate_stream(const std::string& input, const std::string& output
     res.warnings.push_back(std::to_string(degenerate) +
                            " points with a degenerate neighbourhood (identical or collinear "
                            "neighbours) got no normal (reported as failed)");
+}
 
-  // 6. Write in input order, oriented chunk by chunk.
-  if (run.progress) top.stage("writing", 0.95, 1.0);
-  std::vector<Cursor> results;
-  for (size_t t = 0; t < ntiles; ++t) results.emplace_back(tiles.result_file(t), 3 * sizeof(float));
-  {
-    std::string head;
-    if (ply) {
-      const char* type = fits_float ? "float" : "double";
-      head = std::string("ply\nformat ") + (options.ascii ? "ascii" : "binary_little_endian") +
-             " 1.0\ncomment written by nhnet (streamed)\nelement vertex " + std::to_string(res.points) +
-             "\nproperty " + type + " x\nproperty " + type + " y\nproperty " + type +
-             " z\nproperty float nx\nproperty float ny\nproperty float nz\nend_header\n";
-      file.write(head);
-    }
-  }
-  const ScalarType xyz_type = ply && fits_float ? ScalarType::Float32 : ScalarType::Float64;
+// ---------------------------------------------------------------------------------------------
+// Pass 3: the output, in input order.
+
+/// The PLY header of the output: x y z (float when every coordinate is exact in float, else
+/// double) and float normals for `points` vertices.
+std::string ply_header(bool ascii, bool fits_float, int64_t points) {
+  const char* type = fits_float ? "float" : "double";
+  return std::string("ply\nformat ") + (ascii ? "ascii" : "binary_little_endian") +
+         " 1.0\ncomment written by nhnet (streamed)\nelement vertex " + std::to_string(points) +
+         "\nproperty " + type + " x\nproperty " + type + " y\nproperty " + type +
+         " z\nproperty float nx\nproperty float ny\nproperty float nz\nend_header\n";
+}
+
+/// The orientation used: Keep falls back to None (with a warning unless told not to) when the
+/// input has no normals.
+OrientMode orient_mode(const StreamOptions& options, const XyzStream& in,
+                       const std::string& input, StreamResult& res) {
   OrientMode mode = options.orient.mode;
   if (mode == OrientMode::Keep && in.columns() < 6) {
     if (options.warn_keep_without_normals)
-      res.warnings.push_back("orient keep: " + input + " has no normals; output normals stay unoriented");
+      res.warnings.push_back("orient keep: " + input +
+                             " has no normals; output normals stay unoriented");
     mode = OrientMode::None;
   }
-  const bool keep = mode == OrientMode::Keep;
-  res.orient_mode = mode;
-  const size_t chunk = 65536;
-  Points cp(Eigen::Index(chunk), 3);
-  Normals cn(Eigen::Index(chunk), 3), ref(keep ? Eigen::Index(chunk) : 0, 3);
-  size_t filled = 0;
-  std::string text;
-  const auto flush_chunk = [&] {
-    if (filled == 0) return;
-    if (mode != OrientMode::None) {
-      Points p = cp.topRows(Eigen::Index(filled));
-      Normals n = cn.topRows(Eigen::Index(filled));
-      OrientOptions oo = options.orient;
-      oo.run = RunContext{run.threads, {}};
-      const OrientResult r = keep ? orient_normals(p, n, oo, ref.topRows(Eigen::Index(filled)))
-                                  : orient_normals(p, n, oo);
-      cn.topRows(Eigen::Index(filled)) = n;
-      res.orient.flipped += r.flipped;
-      res.orient.unoriented += r.unoriented;
-      res.orient.invalid += r.invalid;
+  return mode;
+}
+
+/// The output's points with their normals, oriented and written kChunk points at a time.
+class OutputChunks {
+ public:
+  OutputChunks(io_detail::AtomicFile& file, const StreamOptions& options, OrientMode mode,
+               ScalarType xyz_type, bool binary, StreamResult& res)
+      : file_(file), options_(options), mode_(mode), keep_(mode == OrientMode::Keep),
+        xyz_type_(xyz_type), binary_(binary), res_(res), cp_(Eigen::Index(kChunk), 3),
+        cn_(Eigen::Index(kChunk), 3), ref_(keep_ ? Eigen::Index(kChunk) : 0, 3) {}
+
+  /// Adds a point: its input row `v` (`columns` values) and its normal (null: NaN).
+  void add(const double* v, size_t columns, const float* normal) {
+    const Eigen::Index i = Eigen::Index(filled_);
+    cp_.row(i) = Eigen::RowVector3d(v[0], v[1], v[2]);
+    if (keep_) {
+      if (columns >= 6) ref_.row(i) = Eigen::RowVector3d(v[3], v[4], v[5]);
+      else ref_.row(i).setConstant(NAN);
     }
-    text.clear();
-    for (size_t i = 0; i < filled; ++i) {
+    if (normal) cn_.row(i) = Eigen::RowVector3d(normal[0], normal[1], normal[2]);
+    else cn_.row(i).setConstant(NAN);
+    if (++filled_ == kChunk) flush();
+  }
+
+  /// Orients and writes the points added since the last flush.
+  void flush() {
+    if (filled_ == 0) return;
+    if (mode_ != OrientMode::None) orient();
+    text_.clear();
+    for (size_t i = 0; i < filled_; ++i) {
       for (int k = 0; k < 6; ++k) {
-        const double v = k < 3 ? cp(Eigen::Index(i), k) : cn(Eigen::Index(i), k - 3);
-        const ScalarType type = k < 3 ? xyz_type : ScalarType::Float32;
-        if (ply && !options.ascii) {
-          io_detail::encode_scalar_le(v, type, text);
+        const double v = k < 3 ? cp_(Eigen::Index(i), k) : cn_(Eigen::Index(i), k - 3);
+        const ScalarType type = k < 3 ? xyz_type_ : ScalarType::Float32;
+        if (binary_) {
+          io_detail::encode_scalar_le(v, type, text_);
         } else {
-          if (k > 0) text += ' ';
-          io_detail::append_number(v, type, text);
+          if (k > 0) text_ += ' ';
+          io_detail::append_number(v, type, text_);
         }
       }
-      if (!ply || options.ascii) text += '\n';
+      if (!binary_) text_ += '\n';
     }
-    file.write(text);
-    filled = 0;
-  };
+    file_.write(text_);
+    filled_ = 0;
+  }
+
+ private:
+  static constexpr size_t kChunk = 65536;
+
+  // Orients the chunk's normals (keep: towards the input's), counting into res.orient.
+  void orient() {
+    const Eigen::Index rows = Eigen::Index(filled_);
+    Points p = cp_.topRows(rows);
+    Normals n = cn_.topRows(rows);
+    OrientOptions oo = options_.orient;
+    oo.run = RunContext{options_.estimate.run.threads, {}};
+    const OrientResult r =
+        keep_ ? orient_normals(p, n, oo, ref_.topRows(rows)) : orient_normals(p, n, oo);
+    cn_.topRows(rows) = n;
+    res_.orient.flipped += r.flipped;
+    res_.orient.unoriented += r.unoriented;
+    res_.orient.invalid += r.invalid;
+  }
+
+  io_detail::AtomicFile& file_;
+  const StreamOptions& options_;
+  OrientMode mode_;
+  bool keep_;
+  ScalarType xyz_type_;
+  bool binary_;  // binary PLY; else text lines (ASCII PLY, XYZ)
+  StreamResult& res_;
+  Points cp_;
+  Normals cn_, ref_;
+  size_t filled_ = 0;
+  std::string text_;
+};
+
+/// Pass 3: reads the input again and writes every point with its tile's normal (NaN for the
+/// non-finite points) in the input's order; counts the failed points into `res`.
+void write_output(const TileRun& tr, XyzStream& in, io_detail::AtomicFile& file,
+                  const StreamOptions& options, bool ply, bool fits_float, StreamResult& res) {
+  if (tr.run.progress) tr.top.stage("writing", 0.95, 1.0);
+  std::vector<Cursor> results;
+  for (size_t t = 0; t < tr.plan.tiles(); ++t)
+    results.emplace_back(tr.tiles.result_file(t), 3 * sizeof(float));
+  if (ply) file.write(ply_header(options.ascii, fits_float, res.points));
+  res.orient_mode = orient_mode(options, in, tr.input, res);
+  OutputChunks chunks(file, options, res.orient_mode,
+                      ply && fits_float ? ScalarType::Float32 : ScalarType::Float64,
+                      ply && !options.ascii, res);
   int64_t failed = 0;
   in.for_each(
       [&](int64_t, const double* v, size_t columns) {
-        const Eigen::Index i = Eigen::Index(filled);
-        cp.row(i) = Eigen::RowVector3d(v[0], v[1], v[2]);
-        if (keep) {
-          if (columns >= 6) ref.row(i) = Eigen::RowVector3d(v[3], v[4], v[5]);
-          else ref.row(i).setConstant(NAN);
-        }
-        if (finite_xyz(v)) {
-          const char* rec = results[size_t(plan.route(frame.to_frame(v)))].next();
-          float n[3];
-          std::memcpy(n, rec, sizeof n);
-          cn.row(i) = Eigen::RowVector3d(n[0], n[1], n[2]);
-          failed += std::isfinite(n[0]) ? 0 : 1;
-        } else {
-          cn.row(i).setConstant(NAN);
+        if (!finite_xyz(v)) {
           ++failed;
+          chunks.add(v, columns, nullptr);
+          return;
         }
-        if (++filled == chunk) flush_chunk();
+        float n[3];
+        std::memcpy(n, results[size_t(tr.plan.route(tr.frame.to_frame(v)))].next(), sizeof n);
+        failed += std::isfinite(n[0]) ? 0 : 1;
+        chunks.add(v, columns, n);
       },
-      [&](double f) { return top.report(f); });
-  top.throw_if_cancelled();
-  flush_chunk();
-  file.commit();
+      [&](double f) { return tr.top.report(f); });
+  tr.top.throw_if_cancelled();
+  chunks.flush();
   res.failed = failed;
-  res.tiles = int(ntiles);
+}
+
+}  // namespace
+
+StreamResult estimate_stream(const std::string& input, const std::string& output,
+                             const StreamOptions& options) {
+  const bool ply = check_stream(input, output, options);
+  // The output's temporary file first: an unwritable folder fails before any work.
+  io_detail::AtomicFile file(output);
+  const EstimateOptions& eo = options.estimate;
+  detail::start_threads(eo.run.threads);
+  detail::Progress top(eo.run.progress);
+  StreamResult res;
+  // Passes 1 and 2: the plan on a sample, then every point into its tile's file.
+  XyzStream in(input);
+  Scan scan = scan_input(in, options, top, res);
+  const Frame frame = frame_of(scan);
+  const Plan plan = plan_tiles(scan, frame, eo.tiles.points);
+  TempDir tmp(temp_parent(options, output));
+  Tiles tiles(tmp, plan.tiles());
+  bin_points(in, frame, plan, tiles, eo.run, top);
+  // The whole cloud's decisions, then each tile's normals to its result file.
+  const TileRun tr{input, frame, plan, tiles, eo.run, top};
+  const detail::Probe probe = noise_probe(tr, scan.finite);
+  const detail::TileSizes sizes = detail::tile_sizes(probe, eo, scan.finite);
+  TileSetup setup = tile_setup(eo, probe);
+  if (eo.method != Method::Pca)
+    setup.overrides.variation_threshold = variation_threshold(tr, options, sizes, scan.finite);
+  estimate_tiles(tr, std::move(setup), eo.tiles.halo * sizes.radius(sizes.kneed), res);
+  // Pass 3: the output in input order, renamed over the target when complete.
+  write_output(tr, in, file, options, ply, scan.fits_float, res);
+  file.commit();
+  res.tiles = int(plan.tiles());
   res.noise_ratio = probe.noise.ratio;
   res.spacing = probe.noise.spacing / frame.scale;
-  if (run.progress) {
+  if (eo.run.progress) {
     top.stage("done", 1, 1);
     top.throw_if_cancelled();
   }
