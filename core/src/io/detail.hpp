@@ -1,4 +1,5 @@
-// Internal helpers shared by the point cloud readers and writers (the files of core/src/io/). Not installed.
+// Internal helpers shared by the point cloud readers and writers (the files of core/src/io/). Not
+// installed.
 //
 // Readers work on the whole file held in memory (FileBytes) and never trust a declared size:
 // every count is bounded by the bytes that are actually left before anything is allocated.
@@ -6,8 +7,8 @@
 // target only when complete.
 #pragma once
 
-#include "nhnet/io/cloud.hpp"
 #include "nhnet/errors.hpp"
+#include "nhnet/io/cloud.hpp"
 
 #include <cstddef>
 #include <cstdint>
@@ -79,7 +80,9 @@ class Tokens {
 };
 
 /// True when `c` separates tokens (space, tab, vertical tab, form feed, NUL).
-inline bool is_blank(char c) { return c == ' ' || c == '\t' || c == '\v' || c == '\f' || c == '\0'; }
+inline bool is_blank(char c) {
+  return c == ' ' || c == '\t' || c == '\v' || c == '\f' || c == '\0';
+}
 
 /// True when the line has no tokens.
 bool is_blank_line(std::string_view line);

@@ -31,9 +31,12 @@ void store(Cloud& cloud, size_t i, const double* row, size_t columns) {
   const bool normals = columns >= 6;
   size_t extra = 0;
   for (size_t c = 0; c < columns; ++c) {
-    if (c < 3) cloud.points(Eigen::Index(i), Eigen::Index(c)) = row[c];
-    else if (normals && c < 6) cloud.normals(Eigen::Index(i), Eigen::Index(c - 3)) = row[c];
-    else cloud.extras[extra++].values[i] = row[c];
+    if (c < 3)
+      cloud.points(Eigen::Index(i), Eigen::Index(c)) = row[c];
+    else if (normals && c < 6)
+      cloud.normals(Eigen::Index(i), Eigen::Index(c - 3)) = row[c];
+    else
+      cloud.extras[extra++].values[i] = row[c];
   }
 }
 

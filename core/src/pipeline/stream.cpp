@@ -22,15 +22,15 @@
 #include "io/detail.hpp"
 #include "nhnet/errors.hpp"
 #include "nhnet/geometry/feature_detection.hpp"
-#include "nhnet/io/io.hpp"
-#include "nhnet/neighbors/neighbors.hpp"
-#include "nhnet/learned/nhnet_model.hpp"
 #include "nhnet/geometry/pca.hpp"
 #include "nhnet/geometry/scales.hpp"
+#include "nhnet/io/io.hpp"
+#include "nhnet/learned/nhnet_model.hpp"
+#include "nhnet/neighbors/neighbors.hpp"
+#include "pipeline/estimator.hpp"
+#include "pipeline/stream_tiles.hpp"
 #include "util/parallel.hpp"
 #include "util/stats.hpp"
-#include "pipeline/stream_tiles.hpp"
-#include "pipeline/estimator.hpp"
 
 #include <algorithm>
 #include <array>
@@ -119,8 +119,8 @@ class TextChunks {
       cut = cr == std::string::npos ? 0 : cr + 1;
     }
     if (cut == 0 && buf_.size() > kMaxLine)
-      input_error(path_, "a line longer than " + std::to_string(kMaxLine) + " bytes" +
-                             " (line " + std::to_string(line_no_) + ")");
+      input_error(path_, "a line longer than " + std::to_string(kMaxLine) + " bytes" + " (line " +
+                             std::to_string(line_no_) + ")");
     return cut;
   }
 
@@ -128,8 +128,10 @@ class TextChunks {
   static size_t count_lines(const std::string& buf, size_t cut, size_t first) {
     size_t n = first;
     for (size_t i = 0; i < cut; ++i) {
-      if (buf[i] == '\n') ++n;
-      else if (buf[i] == '\r' && !(i + 1 < cut && buf[i + 1] == '\n')) ++n;
+      if (buf[i] == '\n')
+        ++n;
+      else if (buf[i] == '\r' && !(i + 1 < cut && buf[i + 1] == '\n'))
+        ++n;
     }
     return n;
   }
@@ -224,8 +226,9 @@ bool check_stream(const std::string& input, const std::string& output,
   detail::check_options(eo);
   if (eo.tiles.points <= 0) throw InvalidOptions("streaming needs tile points > 0");
   if (options.orient.mode == OrientMode::Mst)
-    throw InvalidOptions("--orient mst needs the whole cloud in memory; with streaming use "
-                         "none, keep or viewpoint X Y Z");
+    throw InvalidOptions(
+        "--orient mst needs the whole cloud in memory; with streaming use "
+        "none, keep or viewpoint X Y Z");
   if (options.plan_sample < 1000 || options.variation_sample < 1000)
     throw InvalidOptions("plan and variation samples must be at least 1000 points");
   const bool ply = output_is_ply(output);
@@ -274,9 +277,9 @@ Scan scan_input(XyzStream& in, const StreamOptions& options, detail::Progress& t
                 StreamResult& res) {
   Scan scan(options.estimate.mfps.seed);
   if (options.estimate.run.progress) top.stage("reading", 0, 0.05);
-  res.points = in.for_each(
-      [&](int64_t, const double* v, size_t) { scan.add(v, options.plan_sample); },
-      [&](double f) { return top.report(f); });
+  res.points =
+      in.for_each([&](int64_t, const double* v, size_t) { scan.add(v, options.plan_sample); },
+                  [&](double f) { return top.report(f); });
   top.throw_if_cancelled();
   if (!in.declared_mismatch().empty()) res.warnings.push_back(in.declared_mismatch());
   if (scan.finite < res.points)
@@ -417,9 +420,8 @@ detail::Probe probe_pass(const TileRun& tr, ProbeRows& rows, int64_t step, doubl
   for (size_t r = 0; r < rows.d2.size(); ++r)
     for (int c = 0; c < rows.k; ++c) d2(Eigen::Index(r), c) = rows.d2[r][size_t(c)];
   rows.d2.clear();
-  return detail::probe_from_rows(
-      d2, Eigen::Map<const Eigen::VectorXd>(rows.residual.data(),
-                                            Eigen::Index(rows.residual.size())));
+  return detail::probe_from_rows(d2, Eigen::Map<const Eigen::VectorXd>(
+                                         rows.residual.data(), Eigen::Index(rows.residual.size())));
 }
 
 /// The whole cloud's noise probe: every probe_step-th own point of each tile (the in-memory run
@@ -430,10 +432,9 @@ detail::Probe probe_pass(const TileRun& tr, ProbeRows& rows, int64_t step, doubl
 detail::Probe noise_probe(const TileRun& tr, int64_t finite) {
   if (tr.run.progress) tr.top.stage("noise probe", 0.1, 0.15);
   ProbeRows rows;
-  const detail::Probe rough =
-      probe_pass(tr, rows, std::max<int64_t>(1, finite / 20000), 0, 0, 0.2);
-  return probe_pass(tr, rows, std::max<int64_t>(1, finite / kProbeAllPoints),
-                    2 * rough.far_radius, 0.2, 1);
+  const detail::Probe rough = probe_pass(tr, rows, std::max<int64_t>(1, finite / 20000), 0, 0, 0.2);
+  return probe_pass(tr, rows, std::max<int64_t>(1, finite / kProbeAllPoints), 2 * rough.far_radius,
+                    0.2, 1);
 }
 
 /// What every tile runs with: the options (the model loaded once) and the whole cloud's
@@ -448,8 +449,7 @@ TileSetup tile_setup(const EstimateOptions& eo, const detail::Probe& probe) {
   TileSetup setup{eo, {}};
   setup.overrides.noise_ratio = probe.noise.ratio;
   setup.overrides.spacing = probe.noise.spacing;  // frame units, as the tiles' coordinates
-  if (eo.method == Method::NhNet)
-    setup.options.model.loaded = model_for(eo.model, eo.run.threads);
+  if (eo.method == Method::NhNet) setup.options.model.loaded = model_for(eo.model, eo.run.threads);
   return setup;
 }
 
@@ -463,8 +463,8 @@ double variation_threshold(const TileRun& tr, const StreamOptions& options,
                            const detail::TileSizes& sizes, int64_t finite) {
   const EstimateOptions& eo = options.estimate;
   if (tr.run.progress) tr.top.stage("surface variation", 0.15, 0.15 + variation_span(eo.method));
-  const int64_t vstep = std::max<int64_t>(
-      1, (finite + options.variation_sample - 1) / options.variation_sample);
+  const int64_t vstep =
+      std::max<int64_t>(1, (finite + options.variation_sample - 1) / options.variation_sample);
   const ScaleChoice& choice = sizes.choice;
   const size_t ntiles = tr.plan.tiles();
   std::vector<double> variation;
@@ -487,8 +487,8 @@ double variation_threshold(const TileRun& tr, const StreamOptions& options,
     tr.top.report(double(t + 1) / double(ntiles));
     tr.top.throw_if_cancelled();
   }
-  return detect_feature_candidates(Eigen::Map<const Eigen::VectorXd>(
-                                       variation.data(), Eigen::Index(variation.size())))
+  return detect_feature_candidates(
+             Eigen::Map<const Eigen::VectorXd>(variation.data(), Eigen::Index(variation.size())))
       .absolute_threshold;
 }
 
@@ -500,8 +500,7 @@ int64_t write_tile_result(const fs::path& file, size_t own, const EstimateResult
   int64_t degenerate = 0;
   for (size_t r = 0; r < own; ++r) {
     float n[3];
-    for (int k = 0; k < 3; ++k)
-      n[k] = est.valid[r] ? float(est.normals(Eigen::Index(r), k)) : NAN;
+    for (int k = 0; k < 3; ++k) n[k] = est.valid[r] ? float(est.normals(Eigen::Index(r), k)) : NAN;
     out.add(n, sizeof n);
     degenerate += est.valid[r] ? 0 : 1;
     if (!est.candidate.empty()) res.candidates += est.candidate[r];
@@ -558,8 +557,8 @@ std::string ply_header(bool ascii, bool fits_float, int64_t points) {
 
 /// The orientation used: Keep falls back to None (with a warning unless told not to) when the
 /// input has no normals.
-OrientMode orient_mode(const StreamOptions& options, const XyzStream& in,
-                       const std::string& input, StreamResult& res) {
+OrientMode orient_mode(const StreamOptions& options, const XyzStream& in, const std::string& input,
+                       StreamResult& res) {
   OrientMode mode = options.orient.mode;
   if (mode == OrientMode::Keep && in.columns() < 6) {
     if (options.warn_keep_without_normals)
@@ -575,20 +574,31 @@ class OutputChunks {
  public:
   OutputChunks(io_detail::AtomicFile& file, const StreamOptions& options, OrientMode mode,
                ScalarType xyz_type, bool binary, StreamResult& res)
-      : file_(file), options_(options), mode_(mode), keep_(mode == OrientMode::Keep),
-        xyz_type_(xyz_type), binary_(binary), res_(res), cp_(Eigen::Index(kChunk), 3),
-        cn_(Eigen::Index(kChunk), 3), ref_(keep_ ? Eigen::Index(kChunk) : 0, 3) {}
+      : file_(file),
+        options_(options),
+        mode_(mode),
+        keep_(mode == OrientMode::Keep),
+        xyz_type_(xyz_type),
+        binary_(binary),
+        res_(res),
+        cp_(Eigen::Index(kChunk), 3),
+        cn_(Eigen::Index(kChunk), 3),
+        ref_(keep_ ? Eigen::Index(kChunk) : 0, 3) {}
 
   /// Adds a point: its input row `v` (`columns` values) and its normal (null: NaN).
   void add(const double* v, size_t columns, const float* normal) {
     const Eigen::Index i = Eigen::Index(filled_);
     cp_.row(i) = Eigen::RowVector3d(v[0], v[1], v[2]);
     if (keep_) {
-      if (columns >= 6) ref_.row(i) = Eigen::RowVector3d(v[3], v[4], v[5]);
-      else ref_.row(i).setConstant(NAN);
+      if (columns >= 6)
+        ref_.row(i) = Eigen::RowVector3d(v[3], v[4], v[5]);
+      else
+        ref_.row(i).setConstant(NAN);
     }
-    if (normal) cn_.row(i) = Eigen::RowVector3d(normal[0], normal[1], normal[2]);
-    else cn_.row(i).setConstant(NAN);
+    if (normal)
+      cn_.row(i) = Eigen::RowVector3d(normal[0], normal[1], normal[2]);
+    else
+      cn_.row(i).setConstant(NAN);
     if (++filled_ == kChunk) flush();
   }
 

@@ -141,8 +141,8 @@ void Tiles::append(TilePoints& tp, std::vector<Eigen::RowVector3d>& p, size_t u,
     PointRecord r;
     std::memcpy(&r, bytes.data() + i * sizeof r, sizeof r);
     const Eigen::RowVector3d q(r.p[0], r.p[1], r.p[2]);
-    if (near && !(((q.array() >= near->lo.array() - halo) &&
-                   (q.array() <= near->hi.array() + halo)).all()))
+    if (near &&
+        !(((q.array() >= near->lo.array() - halo) && (q.array() <= near->hi.array() + halo)).all()))
       continue;
     p.push_back(q);
     tp.rows.push_back(r.row);

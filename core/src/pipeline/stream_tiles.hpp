@@ -41,14 +41,14 @@ struct Plan {
     int n = 0;
     while (nodes[size_t(n)].axis >= 0)
       n = p[nodes[size_t(n)].axis] < nodes[size_t(n)].value ? nodes[size_t(n)].left
-                                                           : nodes[size_t(n)].right;
+                                                            : nodes[size_t(n)].right;
     return nodes[size_t(n)].leaf;
   }
 
   /// Splits sample rows order[begin, end) into `parts` leaves (detail::split_range, the
   /// in-memory tiling's rule); points at a cut's value go right. Returns the subtree's node.
-  int build(const Points& s, std::vector<int64_t>& order, int64_t begin, int64_t end,
-            int64_t parts, Eigen::RowVector3d lo_cell, Eigen::RowVector3d hi_cell);
+  int build(const Points& s, std::vector<int64_t>& order, int64_t begin, int64_t end, int64_t parts,
+            Eigen::RowVector3d lo_cell, Eigen::RowVector3d hi_cell);
 
   size_t tiles() const { return cell_lo.size(); }
 };
