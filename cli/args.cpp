@@ -67,8 +67,10 @@ std::vector<int> parse_scales(const std::string& text) {
     const char* last = item.data() + item.size();
     const auto [ptr, ec] = std::from_chars(item.data(), last, value);
     if (item.empty() || ec != std::errc() || ptr != last || value < 3)
-      throw nhnet::InvalidOptions("--scales must be 'auto' or a comma-separated list of integers "
-                                  ">= 3 (e.g. 50,100,150), got " + quoted(text));
+      throw nhnet::InvalidOptions(
+          "--scales must be 'auto' or a comma-separated list of integers "
+          ">= 3 (e.g. 50,100,150), got " +
+          quoted(text));
     scales.push_back(value);
   }
   return scales;

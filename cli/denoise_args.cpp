@@ -43,10 +43,12 @@ void add_denoise_options(CLI::App* sub, DenoiseArgs& a) {
   sub->add_option("--iterations", a.iterations,
                   "Update steps, >= 1 " + default_note(std::to_string(core.iterations)))
       ->type_name("N");
+  const std::string sources = source_list(" | ");
+  const std::string fallback =
+      kNormalSources.front() + " when the shipped model is there, else " + kNormalSources[1];
   sub->add_option("--normals-from", a.normals_from,
-                  source_list(" | ") + ": estimate the guiding normals with that method, or use "
-                  "the input's (default: " + kNormalSources.front() + " when the shipped model "
-                  "is there, else " + kNormalSources[1] + ")")
+                  sources + ": estimate the guiding normals with that method, or use the input's " +
+                      default_note(fallback))
       ->type_name("SOURCE");
   sub->add_option("--radius", a.radius,
                   "Ball radius of the neighbourhoods, input units " +

@@ -41,7 +41,9 @@ int classify_current_exception(std::string& message) {
   } catch (const nhnet::Cancelled&) {
     const int sig = interrupted();
     message = std::string("interrupted") +
-              (sig == SIGTERM ? " (SIGTERM)" : sig == SIGINT ? " (SIGINT)" : "") +
+              (sig == SIGTERM  ? " (SIGTERM)"
+               : sig == SIGINT ? " (SIGINT)"
+                               : "") +
               "; no output written";
     return signal_exit_code(sig);
   } catch (const std::exception& e) {

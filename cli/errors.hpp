@@ -59,7 +59,8 @@ auto naming_file(const std::string& in, F&& f) -> decltype(f()) {
   } catch (const OutOfMemory&) {
     throw;
   } catch (const std::bad_alloc&) {
-    throw OutOfMemory(in + ": out of memory (the cloud needs more memory than this process may "
+    throw OutOfMemory(in +
+                      ": out of memory (the cloud needs more memory than this process may "
                       "use; no output written)");
   }
 }

@@ -46,8 +46,8 @@ void add_method_options(CLI::App* sub, EstimateArgs& a) {
                   "NH-Net model (TorchScript from nhnet-export; default: the shipped "
                   "models/nhnet.pt)")
       ->type_name("PATH");
-  sub->add_option("--device", a.device, "NH-Net device: auto | cpu | cuda " +
-                                            default_note(core.model.device))
+  sub->add_option("--device", a.device,
+                  "NH-Net device: auto | cpu | cuda " + default_note(core.model.device))
       ->type_name("DEV");
   sub->add_option("-k,--k", a.k,
                   "PCA neighbourhood size, >= 3 (default: chosen from the noise level)")
@@ -78,7 +78,8 @@ void add_stream_orient_options(CLI::App* sub, EstimateArgs& a) {
   sub->add_option("--orient", a.orient,
                   "keep: agree with the input's normals (default when the input has normals); "
                   "mst[:K]: consistent over each connected part by a minimum spanning tree over "
-                  "K neighbours (default K " + std::to_string(nhnet::OrientOptions{}.k) +
+                  "K neighbours (default K " +
+                      std::to_string(nhnet::OrientOptions{}.k) +
                       "; default mode when the input has no normals); "
                       "viewpoint X Y Z: towards a sensor at X Y Z; none: signs arbitrary")
       ->type_name("MODE");
@@ -105,8 +106,10 @@ const char* kFooter =
 /// IN OUT, or -o DIR with the options that only apply to it.
 void check_paths(const EstimateArgs& a) {
   if (!a.batch() && a.files.size() != 2)
-    throw nhnet::InvalidOptions("estimate takes IN OUT, or several inputs (files or directories) "
-                                "with -o DIR; got " + std::to_string(a.files.size()) + " paths");
+    throw nhnet::InvalidOptions(
+        "estimate takes IN OUT, or several inputs (files or directories) "
+        "with -o DIR; got " +
+        std::to_string(a.files.size()) + " paths");
   if (!a.batch() && (!a.ext.empty() || a.fail_fast))
     throw nhnet::InvalidOptions("--ext and --fail-fast only apply with -o DIR");
 }
@@ -148,8 +151,9 @@ void check_stream(const EstimateArgs& a, const Setup& st) {
     return;
   }
   if (st.orient.mode == nhnet::OrientMode::Mst && !a.orient.empty())
-    throw nhnet::InvalidOptions("--orient mst needs the whole cloud in memory; with --stream "
-                                "use none, keep or viewpoint X Y Z");
+    throw nhnet::InvalidOptions(
+        "--orient mst needs the whole cloud in memory; with --stream "
+        "use none, keep or viewpoint X Y Z");
   if (st.opt.tiles.points <= 0) throw nhnet::InvalidOptions("--stream needs --tile-points > 0");
   const std::string out =
       a.batch() ? "x." + (a.ext.empty() ? std::string("xyzn") : a.ext) : a.files[1];

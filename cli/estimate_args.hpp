@@ -29,10 +29,10 @@ struct EstimateArgs {
   std::string tile_points = std::to_string(nhnet::EstimateOptions{}.tiles.points);
   std::string orient;  ///< empty = keep when the input has normals, mst otherwise
   std::string seed = std::to_string(nhnet::EstimateOptions{}.mfps.seed);
-  std::string model;                                     ///< empty = the shipped model
+  std::string model;                                           ///< empty = the shipped model
   std::string device = nhnet::EstimateOptions{}.model.device;  ///< NH-Net device
-  bool stream = false;                                   ///< --stream: out of core, XYZ input
-  std::string temp_dir;                                  ///< --temp-dir (stream)
+  bool stream = false;                                         ///< --stream: out of core, XYZ input
+  std::string temp_dir;                                        ///< --temp-dir (stream)
   OutputFlags output;
 
   bool batch() const { return !out_dir.empty(); }

@@ -70,8 +70,8 @@ bool run_job(const EstimateArgs& a, const Setup& st, Reporter& rep,
     if (a.ext.empty()) check_output_format(o.out);
     const auto [it, fresh] = claimed.emplace(o.out, o.in);
     if (!fresh)
-      throw nhnet::OutputError("cannot write " + o.out + " for " + o.in +
-                               ": it is the output of " + it->second);
+      throw nhnet::OutputError("cannot write " + o.out + " for " + o.in + ": it is the output of " +
+                               it->second);
     estimate_file(a, st, o);
     record_success(o);
     return true;

@@ -99,15 +99,15 @@ int finish_batch(const std::vector<Outcome>& outcomes) {
   std::string failures;
   for (const auto& o : outcomes)
     if (o.status == "failed")
-      failures += (failures.empty() ? "" : ", ") + o.in + " (exit " +
-                  std::to_string(o.exit_code) + ")";
-  std::cerr << "nhnet-cli: batch: " << outcomes.size() << " inputs, " << t.ok << " ok, "
-            << t.failed << " failed"
+      failures +=
+          (failures.empty() ? "" : ", ") + o.in + " (exit " + std::to_string(o.exit_code) + ")";
+  std::cerr << "nhnet-cli: batch: " << outcomes.size() << " inputs, " << t.ok << " ok, " << t.failed
+            << " failed"
             << (t.not_run ? ", " + std::to_string(t.not_run) + " not run" : std::string())
             << (failures.empty() ? std::string() : "; failed: " + failures) << std::endl;
   if (const int sig = interrupted()) {
-    print_error(std::string("interrupted (") + (sig == SIGTERM ? "SIGTERM" : "SIGINT") +
-                "); the " + std::to_string(t.ok) +
+    print_error(std::string("interrupted (") + (sig == SIGTERM ? "SIGTERM" : "SIGINT") + "); the " +
+                std::to_string(t.ok) +
                 " outputs written before are complete, the rest were not written");
     return signal_exit_code(sig);
   }

@@ -91,8 +91,8 @@ void Reporter::draw(double fraction, const std::string& name, bool force) {
   std::string bar(size_t(filled), '#');
   bar.resize(size_t(kBarWidth), '.');
   char line[256];
-  std::snprintf(line, sizeof line, "\r\033[K%-12.40s [%s] %3d%% %6.1f s", name.c_str(),
-                bar.c_str(), int(fraction * 100.0), elapsed());
+  std::snprintf(line, sizeof line, "\r\033[K%-12.40s [%s] %3d%% %6.1f s", name.c_str(), bar.c_str(),
+                int(fraction * 100.0), elapsed());
   std::fputs(line, stderr);
   std::fflush(stderr);
   shown_ = true;

@@ -75,16 +75,15 @@ void print_estimate_line(const EstimateSummary& s) {
   char noise[32], secs[32];
   std::snprintf(noise, sizeof noise, "%.3g", s.noise_ratio);
   std::snprintf(secs, sizeof secs, "%.2f", s.seconds);
-  const std::string tiles = s.streamed   ? ", streamed in " + std::to_string(s.tiles) + " tiles"
+  const std::string tiles = s.streamed    ? ", streamed in " + std::to_string(s.tiles) + " tiles"
                             : s.tiles > 1 ? ", " + std::to_string(s.tiles) + " tiles"
                                           : std::string();
   std::ostringstream line;
   line << "nhnet-cli: " << s.points << " points, " << s.failed << " failed, method "
-       << nhnet::to_string(s.method) << (nhnet ? " on " + s.device : std::string()) << ", k "
-       << s.k << ", scales " << (s.scales.empty() ? std::string("-") : join(s.scales, "/"))
-       << ", noise ratio " << noise << ", " << s.candidates << " candidates" << tiles
-       << ", orient " << orient_summary(s.orient, s.orient_result) << ", " << secs
-       << " s, output " << s.out;
+       << nhnet::to_string(s.method) << (nhnet ? " on " + s.device : std::string()) << ", k " << s.k
+       << ", scales " << (s.scales.empty() ? std::string("-") : join(s.scales, "/"))
+       << ", noise ratio " << noise << ", " << s.candidates << " candidates" << tiles << ", orient "
+       << orient_summary(s.orient, s.orient_result) << ", " << secs << " s, output " << s.out;
   std::cerr << line.str() << std::endl;
 }
 
@@ -123,8 +122,7 @@ void print_denoise_json(const DenoiseSummary& s, const nhnet::DenoiseResult& res
      << ", \"skipped\": " << res.skipped << ", \"isolated\": " << res.isolated
      << ", \"normals_from\": " << json_string(s.normals_from)
      << ", \"normals_failed\": " << s.normals_failed << ", \"iterations\": " << s.max_iterations
-     << ", \"iterations_run\": " << res.iterations
-     << ", \"radius\": " << json_number(res.radius, 8)
+     << ", \"iterations_run\": " << res.iterations << ", \"radius\": " << json_number(res.radius, 8)
      << ", \"spacing\": " << json_number(res.spacing, 8)
      << ", \"sigma\": " << json_number(res.sigma)
      << ", \"mean_neighbors\": " << json_number(res.mean_neighbors)

@@ -37,7 +37,7 @@ struct EstimateSummary {
 /// What denoise reports besides its nhnet::DenoiseResult.
 struct DenoiseSummary {
   std::string in, out;
-  std::string normals_from;    ///< the source of the guiding normals
+  std::string normals_from;  ///< the source of the guiding normals
   int64_t points = 0;
   int64_t normals_failed = 0;  ///< points the estimator gave no normal
   int max_iterations = 0;      ///< --iterations
