@@ -3,7 +3,10 @@
 //   0 ok, 1 internal error, 2 usage / bad parameter, 3 unreadable or malformed input,
 //   4 input readable but unprocessable, 5 bad NH-Net model, 6 cannot write output, 7 out of
 //   memory, 8 device unavailable, 10 batch with failed inputs, 130 SIGINT, 143 SIGTERM.
-#include "common.hpp"
+#include "args.hpp"
+#include "commands.hpp"
+#include "errors.hpp"
+#include "progress.hpp"
 
 #include "nhnet/errors.hpp"
 #include "nhnet/version.hpp"
@@ -33,7 +36,7 @@ const char* kExitCodes =
     "  143  terminated by SIGTERM; no output is left behind\n";
 
 int fail(int code, const std::string& message) {
-  std::cerr << "nhnet-cli: error: " << nhcli::one_line(message) << std::endl;
+  nhcli::print_error(message);
   return code;
 }
 
@@ -75,8 +78,8 @@ int main(int argc, char** argv) {
       names += (names.empty() ? "" : ", ") + c.app->get_name();
     }
     if (!known)
-      return fail(nhcli::kUsage, std::string("unknown subcommand '") + argv[1] + "' (expected one of: " +
-                                     names + "; see 'nhnet-cli --help')");
+      return fail(nhcli::kUsage, std::string("unknown subcommand '") + argv[1] +
+                                     "' (expected one of: " + names + "; see 'nhnet-cli --help')");
   }
 
   try {

@@ -633,7 +633,7 @@ case_row24_far_outlier_disconnected_components() {
        END { exit bad > 0 }' outlier.xyzn || fail "a sphere is not oriented outward"
 }
 
-# denoise names the file on exit 4 like estimate (naming_file in cli/common): too few points
+# denoise names the file on exit 4 like estimate (naming_file in cli/errors.hpp): too few points
 # for the estimate, and no point with a valid normal with --normals-from input.
 case_denoise_unprocessable_names_the_file() {
   printf '0 0 0\n1 1 1\n' >two.xyz
