@@ -1,4 +1,5 @@
-// nhnet-cli denoise IN OUT: normal-guided point denoising (paper Eq. 9, core/denoise.hpp). The
+// nhnet-cli denoise IN OUT: normal-guided point denoising (paper Eq. 9,
+// core/include/nhnet/denoise/denoise.hpp). The
 // guiding normals are estimated (nhnet / mfps / pca, as `estimate` does; default nhnet when the
 // shipped model is there, else mfps with a warning) or taken from the input; the
 // output holds the moved points in the input's order, the input's extra properties, and the

@@ -10,7 +10,7 @@
 
 namespace nhcli {
 
-/// Documented exit codes (README "Exit codes"; notes/reliability.md).
+/// Documented exit codes (README "Exit codes"; docs/design/reliability.md#exit-codes).
 enum ExitCode : int {
   kOk = 0,
   kFailure = 1,        ///< unexpected internal error
