@@ -15,14 +15,15 @@
 //          "k_used":..., "scales_used":[...], "stages":{"name": seconds, ...}}
 // "stages" (nhnet methods): wall seconds per progress stage of the core (start, kd-tree,
 // neighbours, pca, bandwidth, mfps planes, mfps selection, bilateral filter, canonical frames,
-// height maps, nhnet), timed from the core's progress callback; they add up to time_s. --normals-out writes the estimated normals
-// (x y z nx ny nz, %.17g) so two builds can be compared bit for bit.
+// height maps, nhnet), timed from the core's progress callback; they add up to time_s.
+// --normals-out writes the estimated normals (x y z nx ny nz, %.17g) so two builds can be compared
+// bit for bit.
 #include "peers.hpp"
 
 #include "nhnet/errors.hpp"
-#include "nhnet/pipeline/estimate.hpp"
-#include "nhnet/io/io.hpp"
 #include "nhnet/eval/metrics.hpp"
+#include "nhnet/io/io.hpp"
+#include "nhnet/pipeline/estimate.hpp"
 
 #include <chrono>
 #include <cmath>
@@ -43,9 +44,9 @@ struct Args {
   int k = 0;
   std::string gt;
   int threads = 2;
-  std::vector<int> scales;    // nhnet mfps: explicit patch sizes (empty = auto)
-  double vcm_offset = 5.0;    // CGAL VCM offset radius in average spacings
-  std::string normals_out;    // optional: write the normals here
+  std::vector<int> scales;  // nhnet mfps: explicit patch sizes (empty = auto)
+  double vcm_offset = 5.0;  // CGAL VCM offset radius in average spacings
+  std::string normals_out;  // optional: write the normals here
 };
 
 /// Wall seconds per core progress stage: the time between two callbacks goes to the stage the
@@ -94,9 +95,16 @@ const std::map<std::string, Runner>& methods() {
       {"mfps-auto", [](auto& p, auto& a) { return run_nhnet(p, a, nhnet::Method::Mfps, true); }},
       // NH-Net with the default model (models/nhnet.pt, or $NHNET_MODEL).
       {"nhnet", [](auto& p, auto& a) { return run_nhnet(p, a, nhnet::Method::NhNet, true); }},
-      {"pcl-pca", [](auto& p, auto& a) { return Output{nhnet_bench::pcl_pca_normals(p, a.k, a.threads), a.k, {}}; }},
-      {"cgal-jet", [](auto& p, auto& a) { return Output{nhnet_bench::cgal_jet_normals(p, a.k, a.threads), a.k, {}}; }},
-      {"cgal-vcm", [](auto& p, auto& a) {
+      {"pcl-pca",
+       [](auto& p, auto& a) {
+         return Output{nhnet_bench::pcl_pca_normals(p, a.k, a.threads), a.k, {}};
+       }},
+      {"cgal-jet",
+       [](auto& p, auto& a) {
+         return Output{nhnet_bench::cgal_jet_normals(p, a.k, a.threads), a.k, {}};
+       }},
+      {"cgal-vcm",
+       [](auto& p, auto& a) {
          return Output{nhnet_bench::cgal_vcm_normals(p, a.k, a.vcm_offset, a.threads), a.k, {}};
        }},
   };
@@ -171,7 +179,8 @@ int main(int argc, char** argv) {
   a.gt = pos[2];
   auto it = methods().find(a.method);
   if (it == methods().end()) {
-    std::fprintf(stderr, "nhnet-bench-worker: unknown method '%s' (see --list)\n", a.method.c_str());
+    std::fprintf(stderr, "nhnet-bench-worker: unknown method '%s' (see --list)\n",
+                 a.method.c_str());
     return 2;
   }
   try {
@@ -184,7 +193,8 @@ int main(int argc, char** argv) {
     const auto t0 = std::chrono::steady_clock::now();
     g_stages.tick("start");  // until the core's first stage: input checks, sort, model load
     Output out = it->second(cloud.points, a);
-    const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const double secs =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     g_stages.tick("");
     if (!a.normals_out.empty()) {
       FILE* f = std::fopen(a.normals_out.c_str(), "w");

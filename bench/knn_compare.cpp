@@ -59,9 +59,9 @@ struct Options {
   double octree_res = 0.02;
   int repeat = 1;
   uint64_t seed = 12345;
-  std::string child;      // method to run in this (child) process
-  std::string dump;       // child: where to write the K-th distances
-  std::string self_exe;   // driver: path used to re-execute
+  std::string child;     // method to run in this (child) process
+  std::string dump;      // child: where to write the K-th distances
+  std::string self_exe;  // driver: path used to re-execute
 };
 
 double now_s() {
@@ -83,7 +83,8 @@ double rss_mb() {
 double cpu_s() {
   rusage ru{};
   getrusage(RUSAGE_SELF, &ru);
-  return double(ru.ru_utime.tv_sec + ru.ru_stime.tv_sec) + 1e-6 * double(ru.ru_utime.tv_usec + ru.ru_stime.tv_usec);
+  return double(ru.ru_utime.tv_sec + ru.ru_stime.tv_sec) +
+         1e-6 * double(ru.ru_utime.tv_usec + ru.ru_stime.tv_usec);
 }
 
 // Wall + CPU stopwatch. On a shared machine CPU seconds are the more stable number.
@@ -179,7 +180,9 @@ struct NfCloud {
   size_t kdtree_get_point_count() const { return xyz.size() / 3; }
   T kdtree_get_pt(size_t i, size_t d) const { return xyz[3 * i + d]; }
   template <class BBOX>
-  bool kdtree_get_bbox(BBOX&) const { return false; }
+  bool kdtree_get_bbox(BBOX&) const {
+    return false;
+  }
 };
 
 template <class T>
@@ -205,7 +208,8 @@ Timing run_nanoflann(const std::vector<double>& xyz, int k, int threads, size_t 
     std::vector<T> d2(k);
 #pragma omp for schedule(dynamic, 256)
     for (int64_t i = 0; i < int64_t(n); ++i) {
-      const size_t found = tree.knnSearch(&cloud.xyz[3 * size_t(i)], size_t(k), idx.data(), d2.data());
+      const size_t found =
+          tree.knnSearch(&cloud.xyz[3 * size_t(i)], size_t(k), idx.data(), d2.data());
       check(size_t(i), idx.data(), d2.data(), found);
     }
   }
@@ -216,7 +220,8 @@ Timing run_nanoflann(const std::vector<double>& xyz, int k, int threads, size_t 
 }
 
 // nhnet::Neighbors as the core uses it (knn_all fills an N x K int32 index matrix).
-Timing run_nhnet(const std::vector<double>& xyz, int k, int threads, std::vector<double>& kth, std::vector<uint64_t>& sig) {
+Timing run_nhnet(const std::vector<double>& xyz, int k, int threads, std::vector<double>& kth,
+                 std::vector<uint64_t>& sig) {
   const size_t n = xyz.size() / 3;
   Timing t;
   nhnet::Points pts(Eigen::Index(n), 3);
@@ -239,7 +244,8 @@ Timing run_nhnet(const std::vector<double>& xyz, int k, int threads, std::vector
     const int32_t* row = idx.row(i).data();
     check(size_t(i), row, static_cast<const float*>(nullptr), size_t(idx.cols()));
     double m = 0;  // knn_all was asked for indices only: K-th distance recomputed (untimed)
-    for (Eigen::Index j = 0; j < idx.cols(); ++j) m = std::max(m, sqdist(&xyz[3 * size_t(i)], &xyz[3 * size_t(row[j])]));
+    for (Eigen::Index j = 0; j < idx.cols(); ++j)
+      m = std::max(m, sqdist(&xyz[3 * size_t(i)], &xyz[3 * size_t(row[j])]));
     kth[size_t(i)] = m;
   }
   t.bad = check.bad();
@@ -260,8 +266,7 @@ pcl::PointCloud<pcl::PointXYZ>::Ptr to_pcl(const std::vector<double>& xyz) {
 
 template <class Build, class Query>
 Timing run_pcl_generic(const std::vector<double>& xyz, int k, int threads, std::vector<double>& kth,
-                       std::vector<uint64_t>& sig,
-                       Build&& build, Query&& query) {
+                       std::vector<uint64_t>& sig, Build&& build, Query&& query) {
   const size_t n = xyz.size() / 3;
   Timing t;
   auto cloud = to_pcl(xyz);
@@ -288,7 +293,8 @@ Timing run_pcl_generic(const std::vector<double>& xyz, int k, int threads, std::
   return t;
 }
 
-Timing run_pcl_kdtreeflann(const std::vector<double>& xyz, int k, int threads, std::vector<double>& kth, std::vector<uint64_t>& sig) {
+Timing run_pcl_kdtreeflann(const std::vector<double>& xyz, int k, int threads,
+                           std::vector<double>& kth, std::vector<uint64_t>& sig) {
   return run_pcl_generic(
       xyz, k, threads, kth, sig,
       [](const pcl::PointCloud<pcl::PointXYZ>::Ptr& c) {
@@ -296,11 +302,13 @@ Timing run_pcl_kdtreeflann(const std::vector<double>& xyz, int k, int threads, s
         tr->setInputCloud(c);
         return tr;
       },
-      [k](const pcl::KdTreeFLANN<pcl::PointXYZ>& tr, const pcl::PointCloud<pcl::PointXYZ>& c, int64_t i,
-          pcl::Indices& idx, std::vector<float>& d2) { return tr.nearestKSearch(c[size_t(i)], k, idx, d2); });
+      [k](const pcl::KdTreeFLANN<pcl::PointXYZ>& tr, const pcl::PointCloud<pcl::PointXYZ>& c,
+          int64_t i, pcl::Indices& idx,
+          std::vector<float>& d2) { return tr.nearestKSearch(c[size_t(i)], k, idx, d2); });
 }
 
-Timing run_pcl_search_kdtree(const std::vector<double>& xyz, int k, int threads, std::vector<double>& kth, std::vector<uint64_t>& sig) {
+Timing run_pcl_search_kdtree(const std::vector<double>& xyz, int k, int threads,
+                             std::vector<double>& kth, std::vector<uint64_t>& sig) {
   return run_pcl_generic(
       xyz, k, threads, kth, sig,
       [](const pcl::PointCloud<pcl::PointXYZ>::Ptr& c) {
@@ -308,8 +316,9 @@ Timing run_pcl_search_kdtree(const std::vector<double>& xyz, int k, int threads,
         tr->setInputCloud(c);
         return tr;
       },
-      [k](const pcl::search::KdTree<pcl::PointXYZ>& tr, const pcl::PointCloud<pcl::PointXYZ>& c, int64_t i,
-          pcl::Indices& idx, std::vector<float>& d2) { return tr.nearestKSearch(c, int(i), k, idx, d2); });
+      [k](const pcl::search::KdTree<pcl::PointXYZ>& tr, const pcl::PointCloud<pcl::PointXYZ>& c,
+          int64_t i, pcl::Indices& idx,
+          std::vector<float>& d2) { return tr.nearestKSearch(c, int(i), k, idx, d2); });
 }
 
 Timing run_pcl_octree(const std::vector<double>& xyz, int k, int threads, double res,
@@ -337,9 +346,11 @@ using CPoint = CK::Point_3;
 using CTraitsBase = CGAL::Search_traits_3<CK>;
 
 // Point + index via Search_traits_adapter (the usual way to get indices back).
-Timing run_cgal_indexed(const std::vector<double>& xyz, int k, int threads, std::vector<double>& kth, std::vector<uint64_t>& sig) {
+Timing run_cgal_indexed(const std::vector<double>& xyz, int k, int threads,
+                        std::vector<double>& kth, std::vector<uint64_t>& sig) {
   using PI = std::tuple<CPoint, uint32_t>;
-  using Traits = CGAL::Search_traits_adapter<PI, CGAL::Nth_of_tuple_property_map<0, PI>, CTraitsBase>;
+  using Traits =
+      CGAL::Search_traits_adapter<PI, CGAL::Nth_of_tuple_property_map<0, PI>, CTraitsBase>;
   using Search = CGAL::Orthogonal_k_neighbor_search<Traits>;
   using Tree = Search::Tree;
   using Distance = Search::Distance;
@@ -347,7 +358,8 @@ Timing run_cgal_indexed(const std::vector<double>& xyz, int k, int threads, std:
   Timing t;
   std::vector<PI> pts;
   pts.reserve(n);
-  for (size_t i = 0; i < n; ++i) pts.emplace_back(CPoint(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]), uint32_t(i));
+  for (size_t i = 0; i < n; ++i)
+    pts.emplace_back(CPoint(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]), uint32_t(i));
   t.rss_before = rss_mb();
   Stopwatch sw;
   Tree tree(pts.begin(), pts.end());
@@ -380,7 +392,8 @@ Timing run_cgal_indexed(const std::vector<double>& xyz, int k, int threads, std:
 // Plain Point_3 keys (no indices: the K-th distance is taken from CGAL's own double distance);
 // optionally with the kd-tree's points cache.
 template <class CacheTag>
-Timing run_cgal_plain(const std::vector<double>& xyz, int k, int threads, std::vector<double>& kth, std::vector<uint64_t>& sig) {
+Timing run_cgal_plain(const std::vector<double>& xyz, int k, int threads, std::vector<double>& kth,
+                      std::vector<uint64_t>& sig) {
   using Splitter = CGAL::Sliding_midpoint<CTraitsBase>;
   using Distance = CGAL::Euclidean_distance<CTraitsBase>;
   using Tree = CGAL::Kd_tree<CTraitsBase, Splitter, CGAL::Tag_true, CacheTag>;
@@ -414,26 +427,34 @@ Timing run_cgal_plain(const std::vector<double>& xyz, int k, int threads, std::v
   t.query_s = sw.wall(), t.query_cpu = sw.cpu();
   t.rss_queried = rss_mb();
   for (auto b : bad) t.bad += b;
-  t.note = std::is_same<CacheTag, CGAL::Tag_true>::value ? "Point_3 keys, points cache" : "Point_3 keys";
+  t.note =
+      std::is_same<CacheTag, CGAL::Tag_true>::value ? "Point_3 keys, points cache" : "Point_3 keys";
   return t;
 }
 
 // ---------------------------------------------------------------------------------------------
-using Runner = std::function<Timing(const std::vector<double>&, int, int, std::vector<double>&, std::vector<uint64_t>&)>;
+using Runner = std::function<Timing(const std::vector<double>&, int, int, std::vector<double>&,
+                                    std::vector<uint64_t>&)>;
 
 std::vector<std::pair<std::string, Runner>> methods(const Options& o) {
   std::vector<std::pair<std::string, Runner>> m;
   m.emplace_back("nhnet-Neighbors", run_nhnet);
   for (size_t leaf : {10, 20, 32}) {
     m.emplace_back("nanoflann-f32-L" + std::to_string(leaf),
-                   [leaf](auto& p, int k, int t, auto& out, auto& sg) { return run_nanoflann<float>(p, k, t, leaf, out, sg); });
+                   [leaf](auto& p, int k, int t, auto& out, auto& sg) {
+                     return run_nanoflann<float>(p, k, t, leaf, out, sg);
+                   });
     m.emplace_back("nanoflann-f64-L" + std::to_string(leaf),
-                   [leaf](auto& p, int k, int t, auto& out, auto& sg) { return run_nanoflann<double>(p, k, t, leaf, out, sg); });
+                   [leaf](auto& p, int k, int t, auto& out, auto& sg) {
+                     return run_nanoflann<double>(p, k, t, leaf, out, sg);
+                   });
   }
   m.emplace_back("pcl-KdTreeFLANN", run_pcl_kdtreeflann);
   m.emplace_back("pcl-search-KdTree", run_pcl_search_kdtree);
   const double res = o.octree_res;
-  m.emplace_back("pcl-octree", [res](auto& p, int k, int t, auto& out, auto& sg) { return run_pcl_octree(p, k, t, res, out, sg); });
+  m.emplace_back("pcl-octree", [res](auto& p, int k, int t, auto& out, auto& sg) {
+    return run_pcl_octree(p, k, t, res, out, sg);
+  });
   m.emplace_back("cgal-indexed", run_cgal_indexed);
   m.emplace_back("cgal-plain", run_cgal_plain<CGAL::Tag_false>);
   m.emplace_back("cgal-plain-cache", run_cgal_plain<CGAL::Tag_true>);
@@ -465,12 +486,14 @@ int child_main(const Options& o) {
   Timing t = it->second(xyz, k, o.threads, kth, sig);
   if (!o.dump.empty()) {
     std::ofstream f(o.dump, std::ios::binary);
-    f.write(reinterpret_cast<const char*>(kth.data()), std::streamsize(kth.size() * sizeof(double)));
-    f.write(reinterpret_cast<const char*>(sig.data()), std::streamsize(sig.size() * sizeof(uint64_t)));
+    f.write(reinterpret_cast<const char*>(kth.data()),
+            std::streamsize(kth.size() * sizeof(double)));
+    f.write(reinterpret_cast<const char*>(sig.data()),
+            std::streamsize(sig.size() * sizeof(uint64_t)));
   }
-  std::printf("RESULT %.4f %.4f %.4f %.4f %.1f %.1f %.1f %lld %s\n", t.build_s, t.query_s, t.build_cpu,
-              t.query_cpu, t.rss_before, t.rss_built, t.rss_queried, static_cast<long long>(t.bad),
-              t.note.c_str());
+  std::printf("RESULT %.4f %.4f %.4f %.4f %.1f %.1f %.1f %lld %s\n", t.build_s, t.query_s,
+              t.build_cpu, t.query_cpu, t.rss_before, t.rss_built, t.rss_queried,
+              static_cast<long long>(t.bad), t.note.c_str());
   return 0;
 }
 
@@ -491,10 +514,21 @@ ChildResult spawn(const Options& o, const std::string& method, int k, const std:
     dup2(pipefd[1], STDOUT_FILENO);
     close(pipefd[0]);
     close(pipefd[1]);
-    std::vector<std::string> args = {o.self_exe, "--child", method, "--k", std::to_string(k),
-                                     "--n", std::to_string(o.n), "--threads", std::to_string(o.threads),
-                                     "--octree-res", std::to_string(o.octree_res), "--seed",
-                                     std::to_string(o.seed), "--dump", dump};
+    std::vector<std::string> args = {o.self_exe,
+                                     "--child",
+                                     method,
+                                     "--k",
+                                     std::to_string(k),
+                                     "--n",
+                                     std::to_string(o.n),
+                                     "--threads",
+                                     std::to_string(o.threads),
+                                     "--octree-res",
+                                     std::to_string(o.octree_res),
+                                     "--seed",
+                                     std::to_string(o.seed),
+                                     "--dump",
+                                     dump};
     std::vector<char*> argv;
     for (auto& a : args) argv.push_back(a.data());
     argv.push_back(nullptr);
@@ -518,7 +552,8 @@ ChildResult spawn(const Options& o, const std::string& method, int k, const std:
   }
   std::istringstream is(out.substr(pos + 7));
   long long bad = 0;
-  is >> r.t.build_s >> r.t.query_s >> r.t.build_cpu >> r.t.query_cpu >> r.t.rss_before >> r.t.rss_built >> r.t.rss_queried >> bad;
+  is >> r.t.build_s >> r.t.query_s >> r.t.build_cpu >> r.t.query_cpu >> r.t.rss_before >>
+      r.t.rss_built >> r.t.rss_queried >> bad;
   r.t.bad = bad;
   std::getline(is, r.t.note);
   if (!r.t.note.empty() && r.t.note[0] == ' ') r.t.note.erase(0, 1);
@@ -537,14 +572,19 @@ int driver_main(const Options& o) {
   std::vector<std::string> names = o.methods;
   if (names.empty())
     for (auto& m : all) names.push_back(m.first);
-  std::printf("knn_compare: N=%zu, threads=%d, seed=%llu, surface cloud (unit sphere + noisy plane)\n", o.n,
-              o.threads, static_cast<unsigned long long>(o.seed));
-  std::printf("columns: build_s = tree build wall s (1 thread) | query_s = wall s for all N queries on %d threads |\n"
-              "q_cpu_s = CPU s of the query loop, q_eff_s = q_cpu_s / threads (wall time on an idle machine) |\n"
-              "tree_MB = RSS growth during build | peak_MB = peak RSS of the child process, including the\n"
-              "input copies | check: points whose K-th distance / index set differ from the reference (%s),\n"
-              "sample points whose K-th distance differs from brute force\n",
-              o.threads, kReference);
+  std::printf(
+      "knn_compare: N=%zu, threads=%d, seed=%llu, surface cloud (unit sphere + noisy plane)\n", o.n,
+      o.threads, static_cast<unsigned long long>(o.seed));
+  std::printf(
+      "columns: build_s = tree build wall s (1 thread) | query_s = wall s for all N queries on %d "
+      "threads |\n"
+      "q_cpu_s = CPU s of the query loop, q_eff_s = q_cpu_s / threads (wall time on an idle "
+      "machine) |\n"
+      "tree_MB = RSS growth during build | peak_MB = peak RSS of the child process, including the\n"
+      "input copies | check: points whose K-th distance / index set differ from the reference "
+      "(%s),\n"
+      "sample points whose K-th distance differs from brute force\n",
+      o.threads, kReference);
   const std::vector<double> xyz = make_points(o.n, o.seed);
   std::mt19937_64 rng(o.seed + 1);
   std::vector<size_t> sample(500);
@@ -564,8 +604,9 @@ int driver_main(const Options& o) {
       brute[size_t(s)] = d[size_t(k - 1)];
     }
     std::printf("\nK = %d\n", k);
-    std::printf("%-20s %8s %8s %8s %8s %8s %8s  %-44s %s\n", "method", "build_s", "query_s", "q_cpu_s",
-                "q_eff_s", "tree_MB", "peak_MB", "check vs ref on all N | vs brute force", "note");
+    std::printf("%-20s %8s %8s %8s %8s %8s %8s  %-44s %s\n", "method", "build_s", "query_s",
+                "q_cpu_s", "q_eff_s", "tree_MB", "peak_MB",
+                "check vs ref on all N | vs brute force", "note");
     std::vector<double> ref;
     std::vector<uint64_t> ref_sig;
     // Run the reference first so everything else can be compared on all N points.
@@ -590,7 +631,8 @@ int driver_main(const Options& o) {
       // (K+1)-th distances tie, in which case the K-th distance still matches.
       size_t mism = 0, set_diff = 0;
       double maxrel = 0;
-      const bool has_sig = std::any_of(r.sig.begin(), r.sig.end(), [](uint64_t v) { return v != 0; });
+      const bool has_sig =
+          std::any_of(r.sig.begin(), r.sig.end(), [](uint64_t v) { return v != 0; });
       for (size_t i = 0; i < o.n && !ref.empty(); ++i) {
         const double rel = std::abs(r.kth[i] - ref[i]) / std::max(ref[i], 1e-300);
         maxrel = std::max(maxrel, rel);
@@ -603,15 +645,17 @@ int driver_main(const Options& o) {
       char sets[32] = "n/a";
       if (has_sig) std::snprintf(sets, sizeof sets, "%zu", set_diff);
       char check[160];
-      std::snprintf(check, sizeof check, "kth %zu (max rel %.0e) sets %s | brute %zu/%zu%s", mism, maxrel, sets,
-                    bmism, sample.size(), r.t.bad ? " MALFORMED" : "");
-      if (r.t.bad) std::snprintf(check + std::strlen(check), sizeof check - std::strlen(check), "=%lld",
-                                 static_cast<long long>(r.t.bad));
-      const bool show = name != kReference || std::find(names.begin(), names.end(), name) != names.end();
+      std::snprintf(check, sizeof check, "kth %zu (max rel %.0e) sets %s | brute %zu/%zu%s", mism,
+                    maxrel, sets, bmism, sample.size(), r.t.bad ? " MALFORMED" : "");
+      if (r.t.bad)
+        std::snprintf(check + std::strlen(check), sizeof check - std::strlen(check), "=%lld",
+                      static_cast<long long>(r.t.bad));
+      const bool show =
+          name != kReference || std::find(names.begin(), names.end(), name) != names.end();
       if (show)
-        std::printf("%-20s %8.3f %8.3f %8.2f %8.3f %8.1f %8.1f  %-44s %s\n", name.c_str(), r.t.build_s,
-                    r.t.query_s, r.t.query_cpu, r.t.query_cpu / o.threads, r.t.rss_built - r.t.rss_before,
-                    r.peak_mb, check, r.t.note.c_str());
+        std::printf("%-20s %8.3f %8.3f %8.2f %8.3f %8.1f %8.1f  %-44s %s\n", name.c_str(),
+                    r.t.build_s, r.t.query_s, r.t.query_cpu, r.t.query_cpu / o.threads,
+                    r.t.rss_built - r.t.rss_before, r.peak_mb, check, r.t.note.c_str());
       std::fflush(stdout);
     }
   }
@@ -635,17 +679,25 @@ int main(int argc, char** argv) {
       }
       return argv[++i];
     };
-    if (a == "--n") o.n = std::stoull(next());
+    if (a == "--n")
+      o.n = std::stoull(next());
     else if (a == "--k") {
       o.ks.clear();
       for (auto& s : split(next())) o.ks.push_back(std::stoi(s));
-    } else if (a == "--threads") o.threads = std::stoi(next());
-    else if (a == "--methods") o.methods = split(next());
-    else if (a == "--octree-res") o.octree_res = std::stod(next());
-    else if (a == "--repeat") o.repeat = std::max(1, std::stoi(next()));
-    else if (a == "--seed") o.seed = std::stoull(next());
-    else if (a == "--child") o.child = next();
-    else if (a == "--dump") o.dump = next();
+    } else if (a == "--threads")
+      o.threads = std::stoi(next());
+    else if (a == "--methods")
+      o.methods = split(next());
+    else if (a == "--octree-res")
+      o.octree_res = std::stod(next());
+    else if (a == "--repeat")
+      o.repeat = std::max(1, std::stoi(next()));
+    else if (a == "--seed")
+      o.seed = std::stoull(next());
+    else if (a == "--child")
+      o.child = next();
+    else if (a == "--dump")
+      o.dump = next();
     else if (a == "--list") {
       for (auto& m : methods(o)) std::printf("%s\n", m.first.c_str());
       return 0;

@@ -14,11 +14,13 @@ nhnet::Normals pcl_pca_normals(const nhnet::Points& points, int k, int threads) 
   pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
   cloud->resize(size_t(points.rows()));
   for (Eigen::Index i = 0; i < points.rows(); ++i)
-    (*cloud)[size_t(i)] = pcl::PointXYZ(float(points(i, 0)), float(points(i, 1)), float(points(i, 2)));
+    (*cloud)[size_t(i)] =
+        pcl::PointXYZ(float(points(i, 0)), float(points(i, 1)), float(points(i, 2)));
 
   pcl::NormalEstimationOMP<pcl::PointXYZ, pcl::Normal> ne(threads);
   ne.setInputCloud(cloud);
-  ne.setSearchMethod(pcl::search::KdTree<pcl::PointXYZ>::Ptr(new pcl::search::KdTree<pcl::PointXYZ>));
+  ne.setSearchMethod(
+      pcl::search::KdTree<pcl::PointXYZ>::Ptr(new pcl::search::KdTree<pcl::PointXYZ>));
   ne.setKSearch(k);
   pcl::PointCloud<pcl::Normal> out;
   ne.compute(out);

@@ -73,7 +73,8 @@ void round_trip(const Cloud& c, bool ascii) {
   for (Eigen::Index i = 0; i < c.size(); ++i)
     for (int k = 0; k < 3; ++k)
       if (!same(c.points(i, k), back.points(i, k))) {
-        std::fprintf(stderr, "round trip (ascii=%d) changed point %ld coordinate %d: %.17g -> %.17g\n",
+        std::fprintf(stderr,
+                     "round trip (ascii=%d) changed point %ld coordinate %d: %.17g -> %.17g\n",
                      int(ascii), long(i), k, c.points(i, k), back.points(i, k));
         std::abort();
       }

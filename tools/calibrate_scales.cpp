@@ -5,12 +5,12 @@
 // `blend=DIR` writes the MFPS PCA blend's features of every cloud to DIR (input of
 // tools/fit_mfps_blend.py).
 // Usage: see tools/README.md.
-#include "nhnet/pipeline/estimate.hpp"
-#include "nhnet/geometry/mfps.hpp"
 #include "nhnet/eval/metrics.hpp"
-#include "nhnet/neighbors/neighbors.hpp"
+#include "nhnet/geometry/mfps.hpp"
 #include "nhnet/geometry/pca.hpp"
 #include "nhnet/geometry/scales.hpp"
+#include "nhnet/neighbors/neighbors.hpp"
+#include "nhnet/pipeline/estimate.hpp"
 
 #include <chrono>
 #include <cmath>
@@ -92,7 +92,8 @@ int main(int argc, char** argv) {
       for (size_t t = 0; t < r.mfps_blend_rows.size(); ++t) {
         const int64_t i = r.mfps_blend_rows[t];
         std::fprintf(f, "%ld", long(i));
-        for (int q = 0; q < kMfpsBlendFeatures; ++q) std::fprintf(f, " %.9g", r.mfps_blend_features(Eigen::Index(t), q));
+        for (int q = 0; q < kMfpsBlendFeatures; ++q)
+          std::fprintf(f, " %.9g", r.mfps_blend_features(Eigen::Index(t), q));
         put(r.mfps_unblended, Eigen::Index(t));
         put(pca.normals, i);
         put(gt, i);
@@ -135,7 +136,8 @@ int main(int argc, char** argv) {
       }
       const auto t0 = std::chrono::steady_clock::now();
       const EstimateResult r = estimate_normals(p, o);
-      const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      const double secs =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       const AngleStats s = angle_stats(r.normals, gt);
       std::printf(" rho=%.3f k=%d scales=", r.noise_ratio, r.k_used);
       for (int k : r.scales_used) std::printf("%d/", k);

@@ -1,22 +1,22 @@
-// Accuracy of the normal-guided denoiser (paper Eq. 9, core/include/nhnet/denoise/denoise.hpp) on generated clouds
-// with clean points: for every BASE (a datagen cloud path without extension: BASE.xyz noisy,
-// BASE.clean.xyz clean, BASE.gt.xyzn ground-truth normals) and every normal source, prints the
-// mean distance of the noisy and of the denoised points to the clean surface (point-to-plane to
-// the nearest clean point, metrics.hpp), in % of the clean cloud's bounding-box diagonal; and for
-// estimated normals the share whose sign agrees with the ground truth after `--orient mst`
-// (orient_normals defaults), over all points and over the points within 60 degrees of the truth
-// (the sign of a normal that is off by more says little).
-// Usage: denoise_accuracy [--methods pca,mfps,nhnet,gt] [--radius-factors 3] [--iterations 5,20]
+// Accuracy of the normal-guided denoiser (paper Eq. 9, core/include/nhnet/denoise/denoise.hpp) on
+// generated clouds with clean points: for every BASE (a datagen cloud path without extension:
+// BASE.xyz noisy, BASE.clean.xyz clean, BASE.gt.xyzn ground-truth normals) and every normal source,
+// prints the mean distance of the noisy and of the denoised points to the clean surface
+// (point-to-plane to the nearest clean point, metrics.hpp), in % of the clean cloud's bounding-box
+// diagonal; and for estimated normals the share whose sign agrees with the ground truth after
+// `--orient mst` (orient_normals defaults), over all points and over the points within 60 degrees
+// of the truth (the sign of a normal that is off by more says little). Usage: denoise_accuracy
+// [--methods pca,mfps,nhnet,gt] [--radius-factors 3] [--iterations 5,20]
 //                         [--cache DIR] BASE...
 // (normal sources: pca / mfps / nhnet = nhnet::estimate_normals with that method, automatic
 // scales; gt = the ground-truth normals, an upper bound). --cache DIR keeps the estimated normals
 // in DIR/NAME.METHOD.xyzn and reuses them (for repeated runs while tuning the denoiser or the
 // orientation). See tools/README.md.
 #include "nhnet/denoise/denoise.hpp"
-#include "nhnet/pipeline/estimate.hpp"
-#include "nhnet/io/io.hpp"
 #include "nhnet/eval/metrics.hpp"
+#include "nhnet/io/io.hpp"
 #include "nhnet/orient/orient.hpp"
+#include "nhnet/pipeline/estimate.hpp"
 
 #include <chrono>
 #include <cmath>
@@ -82,20 +82,22 @@ int main(int argc, char** argv) {
       std::fprintf(stderr,
                    "usage: denoise_accuracy [--methods pca,mfps,nhnet,gt] [--radius-factors 3] "
                    "[--iterations 5,20] [--cache DIR] [--sheet-gap G] [--orient-reflect 0|1] "
-                   "[--orient-guide-k K (0 = no guide)] [--orient-k K] [--orient-inside-outside 0|1] BASE...\n");
+                   "[--orient-guide-k K (0 = no guide)] [--orient-k K] [--orient-inside-outside "
+                   "0|1] BASE...\n");
       return 2;
     } else {
       bases.push_back(arg);
     }
   }
   if (iteration_list.empty()) iteration_list.push_back(iterations);
-  std::printf("%-36s %-5s %4s %6s %10s %10s %7s %6s %8s %8s\n", "cloud", "norm", "it", "factor", "before_%",
-              "after_%", "ratio", "sec", "sign_%", "sign60_%");
+  std::printf("%-36s %-5s %4s %6s %10s %10s %7s %6s %8s %8s\n", "cloud", "norm", "it", "factor",
+              "before_%", "after_%", "ratio", "sec", "sign_%", "sign60_%");
   for (const auto& base : bases) {
     const Cloud noisy = read_cloud(base + ".xyz");
     const Cloud clean = read_cloud(base + ".clean.xyz");
     const Cloud gt = read_cloud(base + ".gt.xyzn");
-    const Eigen::Vector3d lo = clean.points.colwise().minCoeff(), hi = clean.points.colwise().maxCoeff();
+    const Eigen::Vector3d lo = clean.points.colwise().minCoeff(),
+                          hi = clean.points.colwise().maxCoeff();
     const double pct = 100.0 / (hi - lo).norm();
     const double before = surface_distances(noisy.points, clean.points, gt.normals).mean() * pct;
     const std::string name = base.substr(base.find_last_of('/') + 1);
@@ -118,7 +120,8 @@ int main(int argc, char** argv) {
           write_cloud(cached, c);
         }
       }
-      const double t_est = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      const double t_est =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       double sign = NAN, sign60 = NAN;
       if (m != "gt") {
         Normals oriented = normals;
@@ -138,23 +141,24 @@ int main(int argc, char** argv) {
         sign60 = 100.0 * double(agree60) / double(close);
       }
       for (int iters : iteration_list)
-      for (double f : factors) {
-        const auto t1 = std::chrono::steady_clock::now();
-        DenoiseOptions o = dbase;
-        o.radius_factor = f;
-        o.iterations = iters;
-        const DenoiseResult r = denoise_points(noisy.points, normals, o);
-        const double after = surface_distances(r.points, clean.points, gt.normals).mean() * pct;
-        const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
-        std::printf("%-36s %-5s %4d %6.2f %10.4f %10.4f %7.3f %6.2f %8.2f %8.2f\n", name.c_str(),
-                    m.c_str(), iters, f, before, after, after / before, t + t_est, sign, sign60);
-        if (trace) {
-          std::printf("  ran %d, roughness:", r.iterations);
-          for (double v : r.roughness) std::printf(" %.3g", v * pct);
-          std::printf("\n");
+        for (double f : factors) {
+          const auto t1 = std::chrono::steady_clock::now();
+          DenoiseOptions o = dbase;
+          o.radius_factor = f;
+          o.iterations = iters;
+          const DenoiseResult r = denoise_points(noisy.points, normals, o);
+          const double after = surface_distances(r.points, clean.points, gt.normals).mean() * pct;
+          const double t =
+              std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
+          std::printf("%-36s %-5s %4d %6.2f %10.4f %10.4f %7.3f %6.2f %8.2f %8.2f\n", name.c_str(),
+                      m.c_str(), iters, f, before, after, after / before, t + t_est, sign, sign60);
+          if (trace) {
+            std::printf("  ran %d, roughness:", r.iterations);
+            for (double v : r.roughness) std::printf(" %.3g", v * pct);
+            std::printf("\n");
+          }
+          std::fflush(stdout);
         }
-        std::fflush(stdout);
-      }
     }
   }
   return 0;

@@ -40,8 +40,10 @@ std::vector<int> parse_scales(const QString& text) {
     bool ok = false;
     const int v = part.trimmed().toInt(&ok);
     if (!ok)
-      throw nhnet::InvalidOptions("scales must be 'auto' or integers separated by commas (e.g. "
-                                  "50,100,150), got '" + str(text) + "'");
+      throw nhnet::InvalidOptions(
+          "scales must be 'auto' or integers separated by commas (e.g. "
+          "50,100,150), got '" +
+          str(text) + "'");
     out.push_back(v);
   }
   return out;
@@ -63,7 +65,8 @@ Prepared prepare(const NormalsSettings& s) {
     p.warnings << "scales are ignored by the pca method";
   if (!s.model.isEmpty() && !uses_model(p.options.method))
     p.warnings << QString("model file ignored: method %1 uses no model").arg(s.method);
-  if (uses_model(p.options.method)) p.options.model.path = str(s.model.trimmed());  // empty = shipped
+  if (uses_model(p.options.method))
+    p.options.model.path = str(s.model.trimmed());  // empty = shipped
   return p;
 }
 
@@ -96,10 +99,10 @@ void store_normals(ccPointCloud& cloud, const nhnet::Normals& normals) {
   if (!cloud.resizeTheNormsTable()) throw std::bad_alloc();
   for (unsigned i = 0; i < cloud.size(); ++i) {
     const auto row = normals.row(Eigen::Index(i));
-    const CCVector3 v = row.allFinite() ? CCVector3(PointCoordinateType(row(0)),
-                                                    PointCoordinateType(row(1)),
-                                                    PointCoordinateType(row(2)))
-                                        : CCVector3(0, 0, 0);
+    const CCVector3 v = row.allFinite()
+                            ? CCVector3(PointCoordinateType(row(0)), PointCoordinateType(row(1)),
+                                        PointCoordinateType(row(2)))
+                            : CCVector3(0, 0, 0);
     cloud.setPointNormal(i, v);
   }
   cloud.showNormals(true);
@@ -174,8 +177,8 @@ QStringList orient_names() {
 Orient orient_from_string(const QString& name) {
   const int i = orient_names().indexOf(name.trimmed().toLower());
   if (i < 0)
-    throw nhnet::InvalidOptions("unknown orientation '" + str(name) +
-                                "' (expected " + str(orient_names().join(", ")) + ")");
+    throw nhnet::InvalidOptions("unknown orientation '" + str(name) + "' (expected " +
+                                str(orient_names().join(", ")) + ")");
   return Orient(i);
 }
 
@@ -194,7 +197,8 @@ Outcome estimate_cloud_normals(ccPointCloud& cloud, const NormalsSettings& setti
   out.warnings = p.warnings;
   nhnet::OrientOptions orient;
   orient.run.threads = settings.threads;
-  orient.viewpoint = Eigen::Vector3d(settings.viewpoint[0], settings.viewpoint[1], settings.viewpoint[2]);
+  orient.viewpoint =
+      Eigen::Vector3d(settings.viewpoint[0], settings.viewpoint[1], settings.viewpoint[2]);
   switch (settings.orient) {
     case Orient::Auto:
       orient.mode = cloud.hasNormals() ? nhnet::OrientMode::Keep : nhnet::OrientMode::Mst;
@@ -258,7 +262,8 @@ Outcome denoise_cloud(ccPointCloud& cloud, const DenoiseSettings& settings,
   } else if (!cloud.hasNormals()) {
     throw nhnet::InvalidOptions(
         "the cloud has no normals: estimate them first, or let the denoiser estimate them "
-        "(normals: " + str(method_names().join(" / ")) + ")");
+        "(normals: " +
+        str(method_names().join(" / ")) + ")");
   }
   nhnet::DenoiseOptions dopt;
   dopt.iterations = settings.iterations;
@@ -285,14 +290,15 @@ Outcome denoise_cloud(ccPointCloud& cloud, const DenoiseSettings& settings,
   if (!from_input) store_normals(cloud, normals);
   for (unsigned i = 0; i < cloud.size(); ++i) {
     const auto row = res.points.row(Eigen::Index(i));
-    *const_cast<CCVector3*>(cloud.getPointPersistentPtr(i)) =
-        CCVector3(PointCoordinateType(row(0)), PointCoordinateType(row(1)), PointCoordinateType(row(2)));
+    *const_cast<CCVector3*>(cloud.getPointPersistentPtr(i)) = CCVector3(
+        PointCoordinateType(row(0)), PointCoordinateType(row(1)), PointCoordinateType(row(2)));
   }
   cloud.deleteOctree();
   cloud.invalidateBoundingBox();
 
-  out.summary = QString("%1 points, %2 moved, %3 skipped, %4 isolated, %5 iterations, radius %6, "
-                        "sigma %7, normals %8")
+  out.summary = QString(
+                    "%1 points, %2 moved, %3 skipped, %4 isolated, %5 iterations, radius %6, "
+                    "sigma %7, normals %8")
                     .arg(pts.rows())
                     .arg(res.moved)
                     .arg(res.skipped)

@@ -5,8 +5,8 @@
 #pragma once
 
 #include "nhnet/errors.hpp"
-#include "nhnet/pipeline/estimate.hpp"
 #include "nhnet/orient/orient.hpp"
+#include "nhnet/pipeline/estimate.hpp"
 #include "nhnet/progress.hpp"
 
 #include <QString>
@@ -85,8 +85,8 @@ struct DenoiseSettings {
 
 /// What one run did, for the console.
 struct Outcome {
-  QString summary;      ///< one line: counts and the parameters actually used
-  QStringList warnings; ///< the core's non-fatal notes
+  QString summary;       ///< one line: counts and the parameters actually used
+  QStringList warnings;  ///< the core's non-fatal notes
 };
 
 /// Estimates normals of `cloud` and stores them in it (only once everything succeeded: a

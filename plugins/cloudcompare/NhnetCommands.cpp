@@ -31,9 +31,10 @@ T take_number(ccCommandLineInterface& cmd, const char* option) {
   bool ok = false;
   const T x = std::is_integral<T>::value ? T(v.toInt(&ok)) : T(v.toDouble(&ok));
   if (!ok)
-    throw nhnet::InvalidOptions(std::string("-") + option +
-                                (std::is_integral<T>::value ? " needs an integer" : " needs a number") +
-                                ", got '" + v.toStdString() + "'");
+    throw nhnet::InvalidOptions(
+        std::string("-") + option +
+        (std::is_integral<T>::value ? " needs an integer" : " needs a number") + ", got '" +
+        v.toStdString() + "'");
   return x;
 }
 
@@ -72,8 +73,8 @@ bool normals_option(ccCommandLineInterface& cmd, const QString& name, NormalsSet
 bool for_each_cloud(ccCommandLineInterface& cmd, const char* command, const char* suffix,
                     const std::function<Outcome(ccPointCloud&, ccProgressDialog*)>& fn) {
   if (cmd.clouds().empty())
-    return cmd.error(QString("[NH-Net] -%1: no cloud loaded (open one first with -O FILE)")
-                         .arg(command));
+    return cmd.error(
+        QString("[NH-Net] -%1: no cloud loaded (open one first with -O FILE)").arg(command));
   for (CLCloudDesc& desc : cmd.clouds()) {
     if (!desc.pc) continue;
     Outcome out;

@@ -2,7 +2,8 @@
 //   -NHNET_NORMALS [-METHOD mfps|pca] [-SCALES auto|50,100,150]
 //                  [-ORIENT auto|keep|none|mst|viewpoint X Y Z]
 //                  [-THREADS n] [-MODEL path]
-//   -NHNET_DENOISE [-ITERATIONS n] [-RADIUS r] [-NORMALS auto|input|mfps|pca] [-SCALES ..] [-THREADS n]
+//   -NHNET_DENOISE [-ITERATIONS n] [-RADIUS r] [-NORMALS auto|input|mfps|pca] [-SCALES ..]
+//   [-THREADS n]
 // Both work on every loaded cloud, in place, and save them (suffix NHNET_NORMALS / NHNET_DENOISED)
 // unless -AUTO_SAVE OFF. A bad option value or a failed cloud is an error (CloudCompare exits 1).
 #pragma once

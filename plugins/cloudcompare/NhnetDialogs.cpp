@@ -45,28 +45,32 @@ EstimateDialog::EstimateDialog(const NormalsSettings& initial, QWidget* parent) 
   method_ = new QComboBox(this);
   method_->addItems(method_names());
   method_->setCurrentText(initial.method);
-  method_->setToolTip("mfps: PCA on smooth points, multi-scale patch selection near sharp "
-                      "features (default). pca: plain PCA.");
+  method_->setToolTip(
+      "mfps: PCA on smooth points, multi-scale patch selection near sharp "
+      "features (default). pca: plain PCA.");
   form->addRow("Method", method_);
 
   scales_ = new QLineEdit(initial.scales, this);
-  scales_->setToolTip("MFPS patch sizes in points: 'auto' (from the cloud's noise level) or a "
-                      "list like 50,100,150");
+  scales_->setToolTip(
+      "MFPS patch sizes in points: 'auto' (from the cloud's noise level) or a "
+      "list like 50,100,150");
   form->addRow("Scales", scales_);
 
   orient_ = new QComboBox(this);
   const QStringList names = orient_names();
   orient_->addItems(names);
   orient_->setCurrentIndex(int(initial.orient));
-  orient_->setToolTip("auto: keep the cloud's signs if it has normals, MST otherwise; mst: "
-                      "consistent signs over each connected part (outward on closed surfaces); "
-                      "viewpoint: towards the sensor position below");
+  orient_->setToolTip(
+      "auto: keep the cloud's signs if it has normals, MST otherwise; mst: "
+      "consistent signs over each connected part (outward on closed surfaces); "
+      "viewpoint: towards the sensor position below");
   form->addRow("Orientation", orient_);
 
   auto* vp = new QHBoxLayout;
   for (int i = 0; i < 3; ++i) {
     viewpoint_[i] = new QDoubleSpinBox(this);
-    viewpoint_[i]->setRange(-std::numeric_limits<double>::max(), std::numeric_limits<double>::max());
+    viewpoint_[i]->setRange(-std::numeric_limits<double>::max(),
+                            std::numeric_limits<double>::max());
     viewpoint_[i]->setDecimals(4);
     viewpoint_[i]->setValue(initial.viewpoint[size_t(i)]);
     vp->addWidget(viewpoint_[i]);

@@ -27,8 +27,9 @@ void NhnetPlugin::onNewSelection(const ccHObject::Container& selectedEntities) {
 QList<QAction*> NhnetPlugin::getActions() {
   if (!estimateAction_) {
     estimateAction_ = new QAction("Estimate normals (NH-Net)", this);
-    estimateAction_->setToolTip("Estimate normals of the selected clouds (MFPS / PCA; "
-                                "sharp features kept)");
+    estimateAction_->setToolTip(
+        "Estimate normals of the selected clouds (MFPS / PCA; "
+        "sharp features kept)");
     estimateAction_->setIcon(getIcon());
     connect(estimateAction_, &QAction::triggered, this, &NhnetPlugin::estimateNormals);
 
@@ -67,8 +68,8 @@ void NhnetPlugin::forEachCloud(
   for (size_t i = 0; i < clouds.size(); ++i) {
     ccPointCloud* cloud = clouds[i];
     ccProgressDialog progress(true, m_app->getMainWindow());
-    progress.setMethodTitle(QString("NH-Net %1: %2 (%3/%4)")
-                                .arg(what, cloud->getName()).arg(i + 1).arg(clouds.size()));
+    progress.setMethodTitle(
+        QString("NH-Net %1: %2 (%3/%4)").arg(what, cloud->getName()).arg(i + 1).arg(clouds.size()));
     nhcc::Outcome out;
     bool cancelled = false;
     const QString error = nhcc::guarded([&] { out = fn(*cloud, &progress); }, &cancelled);
@@ -103,9 +104,10 @@ void NhnetPlugin::estimateNormals() {
 void NhnetPlugin::denoise() {
   if (!m_app) return;
   if (!nhcc::denoise_available()) {
-    m_app->dispToConsole("[NH-Net] normal-guided denoise is not in this build (nhnet's denoise "
-                         "stage was not found when the plugin was built)",
-                         ccMainAppInterface::ERR_CONSOLE_MESSAGE);
+    m_app->dispToConsole(
+        "[NH-Net] normal-guided denoise is not in this build (nhnet's denoise "
+        "stage was not found when the plugin was built)",
+        ccMainAppInterface::ERR_CONSOLE_MESSAGE);
     return;
   }
   const std::vector<ccPointCloud*> clouds = selectedClouds();

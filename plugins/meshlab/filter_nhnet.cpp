@@ -5,8 +5,8 @@
 
 #include "nhnet/denoise/denoise.hpp"
 #include "nhnet/errors.hpp"
-#include "nhnet/pipeline/estimate.hpp"
 #include "nhnet/orient/orient.hpp"
+#include "nhnet/pipeline/estimate.hpp"
 
 #include <new>
 #include <string>
@@ -152,10 +152,8 @@ QString NhnetFilterPlugin::pluginName() const { return "FilterNhnet"; }
 
 QString NhnetFilterPlugin::filterName(FilterIDType filter) const {
   switch (filter) {
-    case FP_ESTIMATE_NORMALS:
-      return "Estimate normals (NH-Net)";
-    case FP_DENOISE:
-      return "Normal-guided denoise";
+    case FP_ESTIMATE_NORMALS: return "Estimate normals (NH-Net)";
+    case FP_DENOISE: return "Normal-guided denoise";
   }
   return "";
 }
@@ -232,11 +230,12 @@ void NhnetFilterPlugin::initParameterSet(QAction* action, MeshModel& m, RichPara
                             "spanning tree of the k-nearest-neighbour graph from the part's "
                             "highest point, turned up (outwards on closed surfaces). none: the "
                             "sign of each normal is arbitrary."));
-      par.addParam(RichPoint3f("viewpoint", vcg::Point3f(float(o.viewpoint.x()),
-                                                         float(o.viewpoint.y()),
-                                                         float(o.viewpoint.z())),
-                               "Viewpoint", "Sensor position for 'viewpoint' orientation, in the "
-                                            "mesh's coordinates."));
+      par.addParam(RichPoint3f(
+          "viewpoint",
+          vcg::Point3f(float(o.viewpoint.x()), float(o.viewpoint.y()), float(o.viewpoint.z())),
+          "Viewpoint",
+          "Sensor position for 'viewpoint' orientation, in the "
+          "mesh's coordinates."));
       par.addParam(RichInt("mst_k", o.k, "MST neighbours",
                            "Neighbours per point (self included, >= 2) of the graph 'MST' "
                            "orientation propagates over."));
@@ -250,8 +249,8 @@ void NhnetFilterPlugin::initParameterSet(QAction* action, MeshModel& m, RichPara
                               "model installed with nhnet. Used by the NH-Net method only."));
       break;
     case FP_DENOISE:
-      par.addParam(RichInt("iterations", d.iterations, "Iterations",
-                           "Update steps (the paper's: 20)."));
+      par.addParam(
+          RichInt("iterations", d.iterations, "Iterations", "Update steps (the paper's: 20)."));
       par.addParam(RichFloat("radius", float(d.radius), "Radius (0 = auto)",
                              "Ball radius of the neighbourhoods, in the mesh's units; 0 = " +
                                  QString::number(d.radius_factor) +
@@ -271,21 +270,16 @@ void NhnetFilterPlugin::fail(const QString& message) {
   Log(GLLogStream::WARNING, errorMessage.toStdString());
 }
 
-bool NhnetFilterPlugin::applyFilter(QAction* action, MeshDocument& md,
-                                    const RichParameterList& par, vcg::CallBackPos* cb) {
+bool NhnetFilterPlugin::applyFilter(QAction* action, MeshDocument& md, const RichParameterList& par,
+                                    vcg::CallBackPos* cb) {
   errorMessage.clear();
   try {
     MeshModel* mm = md.mm();
     if (mm == nullptr) throw nhnet::UnprocessableInput("no current mesh layer");
     switch (ID(action)) {
-      case FP_ESTIMATE_NORMALS:
-        estimate(*mm, par, cb);
-        break;
-      case FP_DENOISE:
-        denoise(*mm, par, cb);
-        break;
-      default:
-        throw std::logic_error("unknown filter " + action->text().toStdString());
+      case FP_ESTIMATE_NORMALS: estimate(*mm, par, cb); break;
+      case FP_DENOISE: denoise(*mm, par, cb); break;
+      default: throw std::logic_error("unknown filter " + action->text().toStdString());
     }
     return true;
   } catch (const nhnet::InvalidOptions& e) {
@@ -320,7 +314,8 @@ void NhnetFilterPlugin::estimate(MeshModel& mm, const RichParameterList& par,
   oopt.k = par.getInt("mst_k");
   opt.run.threads = non_negative(par, "threads");
   opt.mfps.seed = uint64_t(non_negative(par, "seed"));
-  if (opt.method == nhnet::Method::NhNet) opt.model.path = par.getString("model").trimmed().toStdString();
+  if (opt.method == nhnet::Method::NhNet)
+    opt.model.path = par.getString("model").trimmed().toStdString();
   opt.run.progress = progress_of(cb);
   oopt.run = opt.run;
 
@@ -343,8 +338,7 @@ void NhnetFilterPlugin::estimate(MeshModel& mm, const RichParameterList& par,
       nhnet::to_string(oopt.mode), (long long)ores.flipped, (long long)ores.unoriented);
 }
 
-void NhnetFilterPlugin::denoise(MeshModel& mm, const RichParameterList& par,
-                                vcg::CallBackPos* cb) {
+void NhnetFilterPlugin::denoise(MeshModel& mm, const RichParameterList& par, vcg::CallBackPos* cb) {
   nhnet::DenoiseOptions opt;
   opt.iterations = par.getInt("iterations");
   opt.radius = double(par.getFloat("radius"));

@@ -11,8 +11,8 @@
 #include <pybind11/pybind11.h>
 
 #include <chrono>
-#include <cstring>
 #include <cstdint>
+#include <cstring>
 #include <string>
 #include <vector>
 
@@ -42,7 +42,8 @@ py::array_t<typename Matrix::Scalar> to_numpy(const Matrix& m) {
 py::array_t<bool> to_numpy_mask(const std::vector<uint8_t>& flags);
 
 /// Read-only property getter of one field of a core result held as `core` by a binding's
-/// result class: def_property_readonly("failed", core_field<PyEstimateResult>(&EstimateResult::failed)).
+/// result class: def_property_readonly("failed",
+/// core_field<PyEstimateResult>(&EstimateResult::failed)).
 template <class Wrapper, class Core, class T>
 auto core_field(T Core::*member) {
   return [member](const Wrapper& r) { return r.core.*member; };

@@ -131,9 +131,9 @@ void register_errors(py::module_& m) {
                            "An output file cannot be written; the message names the file and "
                            "the reason (an OSError).",
                            py::make_tuple(base, os_error));
-  cancelled = new_error(m, "Cancelled",
-                        "The progress callback returned False; the work was abandoned.",
-                        py::make_tuple(base));
+  cancelled =
+      new_error(m, "Cancelled", "The progress callback returned False; the work was abandoned.",
+                py::make_tuple(base));
 
   py::register_exception_translator([](std::exception_ptr p) {
     try {

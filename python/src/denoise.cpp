@@ -44,17 +44,20 @@ void register_denoise(py::module_& m) {
       .def_readonly("points", &PyDenoiseResult::points,
                     "(N, 3) float64 denoised points in the input's order; points not moved keep "
                     "their input coordinates.")
-      .def_property_readonly("moved", core_field<PyDenoiseResult>(&DenoiseResult::moved), "Points updated.")
+      .def_property_readonly("moved", core_field<PyDenoiseResult>(&DenoiseResult::moved),
+                             "Points updated.")
       .def_property_readonly("skipped", core_field<PyDenoiseResult>(&DenoiseResult::skipped),
                              "Points left in place: non-finite, or NaN / zero normal.")
       .def_property_readonly("isolated", core_field<PyDenoiseResult>(&DenoiseResult::isolated),
                              "Points left in place: no other usable point in their ball.")
       .def_property_readonly("radius", core_field<PyDenoiseResult>(&DenoiseResult::radius),
                              "Ball radius used, input units.")
-      .def_property_readonly("sigma", core_field<PyDenoiseResult>(&DenoiseResult::sigma), "Normal bandwidth used.")
+      .def_property_readonly("sigma", core_field<PyDenoiseResult>(&DenoiseResult::sigma),
+                             "Normal bandwidth used.")
       .def_property_readonly("spacing", core_field<PyDenoiseResult>(&DenoiseResult::spacing),
                              "Average spacing the default radius came from.")
-      .def_property_readonly("mean_neighbors", core_field<PyDenoiseResult>(&DenoiseResult::mean_neighbors),
+      .def_property_readonly("mean_neighbors",
+                             core_field<PyDenoiseResult>(&DenoiseResult::mean_neighbors),
                              "Mean ball size over the moved points.")
       .def_property_readonly("warnings", core_field<PyDenoiseResult>(&DenoiseResult::warnings),
                              "Non-fatal notes (capped neighbourhoods, ...).")

@@ -43,7 +43,8 @@ void register_descriptors(py::module_& m) {
         py::dict out;
         out["features"] = matrix_to_numpy(d.features);
         out["normals"] = to_numpy(d.geometry.normals);
-        out["rotations"] = rot.reshape({py::ssize_t(d.rotations.rows()), py::ssize_t(3), py::ssize_t(3)});
+        out["rotations"] =
+            rot.reshape({py::ssize_t(d.rotations.rows()), py::ssize_t(3), py::ssize_t(3)});
         out["valid"] = valid;
         out["k_used"] = d.k_used;
         out["scales_used"] = d.geometry.scales_used;
@@ -62,8 +63,7 @@ Returns a dict: 'features' (N, DESCRIPTOR_SIZE) float32 (NaN rows where invalid)
 'valid' (N,) bool, 'k_used' (descriptor neighbourhood), 'scales_used', 'spacing',
 'noise_ratio'. threads / seed / progress as in nhnet.estimate().)",
       py::arg("points"), py::kw_only(), py::arg("threads") = EstimateOptions{}.run.threads,
-      py::arg("seed") = EstimateOptions{}.mfps.seed,
-      py::arg("progress") = py::none());
+      py::arg("seed") = EstimateOptions{}.mfps.seed, py::arg("progress") = py::none());
 }
 
 }  // namespace nhnet::python

@@ -34,8 +34,7 @@ PyEstimateResult estimate(const py::handle& points, const std::string& method, i
   opt.run.threads = threads;
   opt.mfps.seed = seed;
   const Points pts = to_points(points, "points");
-  OrientRequest req =
-      orient_request(orient, py::none(), viewpoint, OrientOptions().k, pts.rows());
+  OrientRequest req = orient_request(orient, py::none(), viewpoint, OrientOptions().k, pts.rows());
   req.options.run.threads = threads;
 
   PyEstimateResult out;
@@ -113,15 +112,18 @@ void register_estimate(py::module_& m) {
                     "PCA neighbourhood (PCL's 'curvature'); NaN where failed.")
       .def_property_readonly("failed", core_field<PyEstimateResult>(&EstimateResult::failed),
                              "Number of False entries in `valid`.")
-      .def_property_readonly("candidates", core_field<PyEstimateResult>(&EstimateResult::candidates),
+      .def_property_readonly("candidates",
+                             core_field<PyEstimateResult>(&EstimateResult::candidates),
                              "Points classified as candidates near sharp features (MFPS only).")
-      .def_property_readonly("noise_ratio", core_field<PyEstimateResult>(&EstimateResult::noise_ratio),
+      .def_property_readonly("noise_ratio",
+                             core_field<PyEstimateResult>(&EstimateResult::noise_ratio),
                              "Estimated noise level: residual bandwidth / average spacing.")
       .def_property_readonly("spacing", core_field<PyEstimateResult>(&EstimateResult::spacing),
                              "Average distance to the nearest other point, input units.")
       .def_property_readonly("k_used", core_field<PyEstimateResult>(&EstimateResult::k_used),
                              "PCA neighbourhood size used.")
-      .def_property_readonly("scales_used", core_field<PyEstimateResult>(&EstimateResult::scales_used),
+      .def_property_readonly("scales_used",
+                             core_field<PyEstimateResult>(&EstimateResult::scales_used),
                              "MFPS patch sizes used (empty for PCA).")
       .def_property_readonly("warnings", core_field<PyEstimateResult>(&EstimateResult::warnings),
                              "Non-fatal notes (non-finite points skipped, clamped sizes, ...).")
@@ -139,8 +141,9 @@ void register_estimate(py::module_& m) {
       });
 
   const std::string estimate_doc =
-      std::string("Estimates unit normals and returns the full result (normals, valid mask, "
-                  "failed count, noise ratio, sizes used, warnings).\n") +
+      std::string(
+          "Estimates unit normals and returns the full result (normals, valid mask, "
+          "failed count, noise ratio, sizes used, warnings).\n") +
       kArgsDoc;
   // One argument list for estimate() and estimate_normals().
   // Defaults from the core's options (one place for every front end).
@@ -155,16 +158,17 @@ void register_estimate(py::module_& m) {
              args);
 
   const std::string normals_doc =
-      std::string("Estimates unit normals: returns an (N, 3) float64 array, NaN rows for points "
-                  "that failed. The core's warnings are issued as Python RuntimeWarnings; use "
-                  "nhnet.estimate() for the valid mask, the noise ratio and the sizes used.\n") +
+      std::string(
+          "Estimates unit normals: returns an (N, 3) float64 array, NaN rows for points "
+          "that failed. The core's warnings are issued as Python RuntimeWarnings; use "
+          "nhnet.estimate() for the valid mask, the noise ratio and the sizes used.\n") +
       kArgsDoc;
   const auto estimate_normals = [](const py::handle& points, const std::string& method, int k,
                                    std::optional<std::vector<int>> scales, int threads,
                                    uint64_t seed, const py::object& orient,
                                    const py::object& viewpoint, const py::object& progress) {
-    PyEstimateResult r = estimate(points, method, k, std::move(scales), threads, seed, orient,
-                                  viewpoint, progress);
+    PyEstimateResult r =
+        estimate(points, method, k, std::move(scales), threads, seed, orient, viewpoint, progress);
     for (const std::string& w : r.core.warnings)
       if (PyErr_WarnEx(PyExc_RuntimeWarning, ("nhnet: " + w).c_str(), 1) != 0)
         throw py::error_already_set();

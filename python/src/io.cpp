@@ -1,8 +1,8 @@
 // Bindings of the point cloud io (io.hpp): nhnet.read() -> nhnet.Cloud, nhnet.write().
 #include "bindings.hpp"
 
-#include "nhnet/io/cloud.hpp"
 #include "nhnet/errors.hpp"
+#include "nhnet/io/cloud.hpp"
 #include "nhnet/io/io.hpp"
 
 #include <pybind11/stl.h>
@@ -127,14 +127,14 @@ void register_io(py::module_& m) {
                       "`normals` (N, 3) float64 or None, `extras` {name: (N,) array} holding the "
                       "file's other per-point properties (colour, intensity, ...) in their "
                       "declared types.")
-      .def(py::init([](const py::object& points, const py::object& normals,
-                       const py::object& extras) {
-             PyCloud c;
-             c.points = points;
-             c.normals = normals;
-             if (!extras.is_none()) c.extras = extras.cast<py::dict>();
-             return c;
-           }),
+      .def(py::init(
+               [](const py::object& points, const py::object& normals, const py::object& extras) {
+                 PyCloud c;
+                 c.points = points;
+                 c.normals = normals;
+                 if (!extras.is_none()) c.extras = extras.cast<py::dict>();
+                 return c;
+               }),
            py::arg("points"), py::arg("normals") = py::none(), py::arg("extras") = py::none())
       .def_readwrite("points", &PyCloud::points, "(N, 3) float64 coordinates.")
       .def_readwrite("normals", &PyCloud::normals, "(N, 3) float64 normals or None.")
@@ -165,8 +165,7 @@ void register_io(py::module_& m) {
         "Raises nhnet.OutputError (an OSError) naming the file and the reason, "
         "nhnet.InvalidOptions (a ValueError) for bad arrays.",
         py::arg("path"), py::arg("points"), py::arg("normals") = py::none(), py::kw_only(),
-        py::arg("extras") = py::none(), py::arg("ascii") = false,
-        py::arg("format") = py::none());
+        py::arg("extras") = py::none(), py::arg("ascii") = false, py::arg("format") = py::none());
 }
 
 }  // namespace nhnet::python

@@ -52,14 +52,13 @@ struct PyOrientResult {
 };
 
 PyOrientResult orient(const py::handle& points, const py::handle& normals, const py::object& mode,
-                      const py::object& reference, const py::object& viewpoint, int k,
-                      int threads, const py::object& progress) {
+                      const py::object& reference, const py::object& viewpoint, int k, int threads,
+                      const py::object& progress) {
   const Points pts = to_points(points, "points");
   Normals nrm = to_points(normals, "normals");
   if (nrm.rows() != pts.rows())
-    throw InvalidOptions("normals must have one row per point: got " +
-                         std::to_string(nrm.rows()) + " for " + std::to_string(pts.rows()) +
-                         " points");
+    throw InvalidOptions("normals must have one row per point: got " + std::to_string(nrm.rows()) +
+                         " for " + std::to_string(pts.rows()) + " points");
   OrientRequest req = orient_request(mode, reference, viewpoint, k, pts.rows());
   req.options.run.threads = threads;
   PyOrientResult out;
@@ -111,7 +110,8 @@ void register_orient(py::module_& m) {
         "(Hoppe et al. 1992, CGAL's mst_orient_normals, once per connected component; outward on "
         "a closed surface, where a voxel flood fill first decides each point's outside and the "
         "tree grows from those points: see OrientResult.inside_outside_votes); 'viewpoint' "
-        "turns every normal towards `viewpoint` (x, y, z; default the origin); 'keep' makes each normal agree with `reference` (N, 3); 'none' changes "
+        "turns every normal towards `viewpoint` (x, y, z; default the origin); 'keep' makes each "
+        "normal agree with `reference` (N, 3); 'none' changes "
         "nothing.\n"
         "k : neighbours per point of the 'mst' graph (default 18, at least 2).\n"
         "threads, progress : as in nhnet.estimate(); the GIL is released, Ctrl-C interrupts.\n\n"

@@ -6,9 +6,9 @@
 
 #include "nhnet/denoise/denoise.hpp"
 #include "nhnet/errors.hpp"
-#include "nhnet/pipeline/estimate.hpp"
-#include "nhnet/io/io.hpp"
 #include "nhnet/eval/metrics.hpp"
+#include "nhnet/io/io.hpp"
+#include "nhnet/pipeline/estimate.hpp"
 
 #include <gtest/gtest.h>
 
@@ -117,8 +117,9 @@ TEST(Denoise, CubeFacesGetCloserAndEdgesStaySharp) {
 
 TEST(Denoise, TheTwoSidesOfAThinWallStayApart) {
   // The two sides of a wall: noisy planes z = 0 and z = 0.06 (normals facing away), 4000 points
-  // each; the given radius 0.08 reaches ~9 points of the other side. Eq. 9 on the whole ball pulls both sides towards the
-  // middle; with the other sheet left out of N_i (sheet_gap) each side stays on its plane.
+  // each; the given radius 0.08 reaches ~9 points of the other side. Eq. 9 on the whole ball pulls
+  // both sides towards the middle; with the other sheet left out of N_i (sheet_gap) each side stays
+  // on its plane.
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   std::normal_distribution<double> g(0.0, 0.003);

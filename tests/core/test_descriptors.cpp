@@ -3,13 +3,13 @@
 // scaling of the cloud.
 #include "fixtures.hpp"
 
+#include "nhnet/eval/metrics.hpp"
+#include "nhnet/geometry/pca.hpp"
 #include "nhnet/learned/bilateral_filter.hpp"
 #include "nhnet/learned/canonical_frame.hpp"
 #include "nhnet/learned/descriptors.hpp"
-#include "nhnet/pipeline/describe.hpp"
 #include "nhnet/learned/height_map.hpp"
-#include "nhnet/eval/metrics.hpp"
-#include "nhnet/geometry/pca.hpp"
+#include "nhnet/pipeline/describe.hpp"
 
 #include <gtest/gtest.h>
 
@@ -73,9 +73,11 @@ TEST(CanonicalFrame, ProperRotationAndInvariant) {
   FeatureNormals fr = fn;
   for (Eigen::Index i = 0; i < fr.rows(); ++i)
     for (int a = 0; a < 9; ++a)
-      fr.block<1, 3>(i, 3 * a) = ((i + a) % 2 ? -1.0 : 1.0) * (q * fn.block<1, 3>(i, 3 * a).transpose()).transpose();
+      fr.block<1, 3>(i, 3 * a) =
+          ((i + a) % 2 ? -1.0 : 1.0) * (q * fn.block<1, 3>(i, 3 * a).transpose()).transpose();
   Points pr = f.points;
-  for (Eigen::Index i = 0; i < pr.rows(); ++i) pr.row(i) = (q * f.points.row(i).transpose()).transpose();
+  for (Eigen::Index i = 0; i < pr.rows(); ++i)
+    pr.row(i) = (q * f.points.row(i).transpose()).transpose();
   const CanonicalFrames cr = canonical_frames(pr, knn, 30, fr);
   int same = 0;
   for (Eigen::Index i = 0; i < fn.rows(); ++i) {
@@ -106,8 +108,9 @@ TEST(HeightMap, PlaneIsFlatSphereCurvesAway) {
   m = height_maps(sp.points, knn, 60, canonical_frames(sp.points, knn, 60, fn));
   // Outward normals: the sphere falls below the tangent plane, more at the rim than in the
   // middle; heights are in cells, so the edge bin (0, 3), 3 cells out, lies about 9 h^2 / 2 / h
-  // = 4.5 h deep with h = R / 3.9 of the unit sphere (R ~ 0.1 here): about -0.1 (more at the corners), clearly negative.
-  // Checked on the mean of the outer ring of bins (single bins may be empty, hence 0).
+  // = 4.5 h deep with h = R / 3.9 of the unit sphere (R ~ 0.1 here): about -0.1 (more at the
+  // corners), clearly negative. Checked on the mean of the outer ring of bins (single bins may be
+  // empty, hence 0).
   for (Eigen::Index i = 0; i < m.rows(); i += 97) {
     double ring = 0;
     for (int b = 0; b < 7; ++b) ring += m(i, b) + m(i, 42 + b) + m(i, 7 * b) + m(i, 7 * b + 6);

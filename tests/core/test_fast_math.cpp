@@ -8,10 +8,10 @@
 
 #include <cmath>
 #include <cstdio>
-#include <string>
 #include <cstring>
 #include <limits>
 #include <random>
+#include <string>
 #include <vector>
 
 namespace {

@@ -35,8 +35,8 @@ TEST(FeatureDetection, FlagsTheHighVariationTail) {
   int64_t smooth_flagged = 0, feature_flagged = 0;
   for (int i = 0; i < 9000; ++i) smooth_flagged += d.candidate[size_t(i)];
   for (int i = 9000; i < 10000; ++i) feature_flagged += d.candidate[size_t(i)];
-  EXPECT_LT(smooth_flagged, 90);     // < 1 % of smooth points
-  EXPECT_GT(feature_flagged, 950);   // > 95 % of feature points
+  EXPECT_LT(smooth_flagged, 90);    // < 1 % of smooth points
+  EXPECT_GT(feature_flagged, 950);  // > 95 % of feature points
 }
 
 TEST(FeatureDetection, PlanarCloudHasNoCandidates) {

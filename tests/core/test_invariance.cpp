@@ -14,8 +14,8 @@
 #include <Eigen/Geometry>
 
 #include <algorithm>
-#include <cstdio>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <numeric>
 #include <random>
@@ -42,8 +42,8 @@ double angle_deg(const Eigen::RowVector3d& a, const Eigen::RowVector3d& b) {
 }
 
 struct Diff {
-  double mean = 0;           ///< mean angle over points valid in both
-  double frac_over_1 = 0;    ///< fraction of those points differing by more than 1 degree
+  double mean = 0;             ///< mean angle over points valid in both
+  double frac_over_1 = 0;      ///< fraction of those points differing by more than 1 degree
   int64_t valid_mismatch = 0;  ///< points valid in one result only
 };
 
@@ -167,7 +167,8 @@ TEST_P(Invariance, ExactDuplicatesSameAsDeduplicated) {
     EXPECT_TRUE(identical(a.normals, b.normals.middleRows(c * p.rows(), p.rows())));
     for (Eigen::Index i = 0; i < p.rows(); ++i) {
       const double x = a.curvature[i], y = b.curvature[c * p.rows() + i];
-      EXPECT_TRUE(x == y || (std::isnan(x) && std::isnan(y))) << "curvature of copy " << c << " of " << i;
+      EXPECT_TRUE(x == y || (std::isnan(x) && std::isnan(y)))
+          << "curvature of copy " << c << " of " << i;
     }
   }
   EXPECT_EQ(b.failed, 3 * a.failed);

@@ -7,16 +7,16 @@
 #include "nhnet/io/io.hpp"
 
 #include <gtest/gtest.h>
-#include <functional>
 #include <sys/wait.h>
+#include <functional>
 
 #include <sys/resource.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
 #include <chrono>
-#include <csignal>
 #include <cmath>
+#include <csignal>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -57,7 +57,8 @@ class IoTest : public ::testing::Test {
   /// Names of the files in the directory.
   std::vector<std::string> listing() const {
     std::vector<std::string> names;
-    for (const auto& e : fs::directory_iterator(dir_)) names.push_back(e.path().filename().string());
+    for (const auto& e : fs::directory_iterator(dir_))
+      names.push_back(e.path().filename().string());
     return names;
   }
 
@@ -80,8 +81,8 @@ bool same_value(double a, double b) { return (std::isnan(a) && std::isnan(b)) ||
 void expect_same_points(const Points& a, const Points& b) {
   ASSERT_EQ(a.rows(), b.rows());
   for (Eigen::Index i = 0; i < a.size(); ++i)
-    ASSERT_TRUE(same_value(a.data()[i], b.data()[i])) << "index " << i << ": " << a.data()[i]
-                                                        << " vs " << b.data()[i];
+    ASSERT_TRUE(same_value(a.data()[i], b.data()[i]))
+        << "index " << i << ": " << a.data()[i] << " vs " << b.data()[i];
 }
 
 /// A cloud of n points with float-exact or full-double coordinates, unit normals, some NaNs.
@@ -222,12 +223,9 @@ TEST_F(IoTest, RoundTripEveryFormatBitExact) {
     const char* name;
     WriteOptions options;
   };
-  const Case cases[] = {{"rt.ply", {}},
-                        {"rt_ascii.ply", {FileFormat::Auto, true}},
-                        {"rt.pcd", {}},
-                        {"rt_ascii.pcd", {FileFormat::Auto, true}},
-                        {"rt.xyz", {}},
-                        {"rt.dat", {FileFormat::Ply, false}}};
+  const Case cases[] = {{"rt.ply", {}}, {"rt_ascii.ply", {FileFormat::Auto, true}},
+                        {"rt.pcd", {}}, {"rt_ascii.pcd", {FileFormat::Auto, true}},
+                        {"rt.xyz", {}}, {"rt.dat", {FileFormat::Ply, false}}};
   for (const bool double_coords : {false, true}) {
     const Cloud in = make_cloud(500, double_coords, true);
     for (const Case& c : cases) {
@@ -322,9 +320,10 @@ TEST_F(IoTest, PlyBigEndianHandBuilt) {
 TEST_F(IoTest, PlyBigEndianRoundTripThroughTestWriter) {
   // Serialise a cloud as big-endian PLY here and compare with the little-endian write.
   Cloud in = make_cloud(200, true, true);
-  std::string b = "ply\nformat binary_big_endian 1.0\nelement vertex 200\n"
-                  "property double x\nproperty double y\nproperty double z\n"
-                  "property float nx\nproperty float ny\nproperty float nz\nend_header\n";
+  std::string b =
+      "ply\nformat binary_big_endian 1.0\nelement vertex 200\n"
+      "property double x\nproperty double y\nproperty double z\n"
+      "property float nx\nproperty float ny\nproperty float nz\nend_header\n";
   for (Eigen::Index i = 0; i < in.size(); ++i) {
     for (int k = 0; k < 3; ++k) b += be<double>(in.points(i, k));
     for (int k = 0; k < 3; ++k) b += be<float>(float(in.normals(i, k)));
@@ -423,7 +422,8 @@ TEST_F(IoTest, PcdBinaryCompressedHandBuilt) {
     pads += std::string(2, 'p');
   }
   const std::string raw = xs + ys + zs + is + pads;
-  const std::string stream = lzf_literals(xs + ys) + lzf_repeat('\0', zs.size()) + lzf_literals(is + pads);
+  const std::string stream =
+      lzf_literals(xs + ys) + lzf_repeat('\0', zs.size()) + lzf_literals(is + pads);
   std::string b =
       "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS x y z intensity _\n"
       "SIZE 4 4 4 1 1\nTYPE F F F U U\nCOUNT 1 1 1 1 2\nWIDTH 40\nHEIGHT 1\n"
@@ -501,10 +501,10 @@ TEST_F(IoTest, XyzPtsCountLineAndSniffing) {
   // numeric content with an unknown extension is XYZ
   EXPECT_EQ(read_cloud(put("scan.dat", "1 2 3\n4 5 6\n")).size(), 2);
   // PCD content with a .ply extension is read as PCD (content beats extension)
-  const std::string pcd = "VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 1\nPOINTS 1\nDATA ascii\n1 2 3\n";
+  const std::string pcd =
+      "VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 1\nPOINTS 1\nDATA ascii\n1 2 3\n";
   EXPECT_EQ(read_cloud(put("really_pcd.ply", pcd)).size(), 1);
 }
-
 
 // Runs `check` (returns true on the expected outcome) with the permissions of an unprivileged
 // user: directly when not root, else in a child process that drops to uid/gid 65534 (nobody),
@@ -589,12 +589,12 @@ TEST_F(IoTest, PlyHeaderErrors) {
                                         "element vertex 1\nproperty float x\nproperty float z\n"
                                         "end_header\n1 2\n"),
                      "no 'y' property");
-  expect_input_error(put("dup.ply", std::string(kPlyHeaderStart) + v +
-                                        "property float x\nend_header\n1 2 3 4\n"),
-                     "duplicate property 'x'");
-  expect_input_error(put("novertex.ply", std::string(kPlyHeaderStart) +
-                                             "element face 0\nend_header\n"),
-                     "no vertex element");
+  expect_input_error(
+      put("dup.ply", std::string(kPlyHeaderStart) + v + "property float x\nend_header\n1 2 3 4\n"),
+      "duplicate property 'x'");
+  expect_input_error(
+      put("novertex.ply", std::string(kPlyHeaderStart) + "element face 0\nend_header\n"),
+      "no vertex element");
   expect_input_error(put("keyword.ply", std::string(kPlyHeaderStart) + v + "bogus 1\nend_header\n"),
                      "unknown header keyword 'bogus'");
   expect_input_error(put("flist.ply", std::string(kPlyHeaderStart) + v +
@@ -617,8 +617,9 @@ TEST_F(IoTest, PlyBadCounts) {
 // Bad input: PLY bodies
 
 TEST_F(IoTest, PlyAsciiFewerRowsThanDeclared) {
-  std::string a = "ply\nformat ascii 1.0\nelement vertex 1000\nproperty float x\n"
-                  "property float y\nproperty float z\nend_header\n";
+  std::string a =
+      "ply\nformat ascii 1.0\nelement vertex 1000\nproperty float x\n"
+      "property float y\nproperty float z\nend_header\n";
   for (int i = 0; i < 12; ++i) a += "1 2 3\n";
   expect_input_error(put("short.ply", a), "expected 1000 vertices, file ends after 12 (line 19)");
   a += std::string(8000, ' ');  // enough bytes that the size pre-check passes
@@ -626,8 +627,9 @@ TEST_F(IoTest, PlyAsciiFewerRowsThanDeclared) {
 }
 
 TEST_F(IoTest, PlyAsciiMalformedValues) {
-  const std::string h = "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\n"
-                        "property float y\nproperty float z\nproperty uchar red\nend_header\n";
+  const std::string h =
+      "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\n"
+      "property float y\nproperty float z\nproperty uchar red\nend_header\n";
   expect_input_error(put("comma.ply", h + "1 2 3 4\n1,5 2 3 4\n"), "malformed number '1,5'");
   expect_input_error(put("comma.ply", h + "1 2 3 4\n1,5 2 3 4\n"), "line 10");
   expect_input_error(put("few.ply", h + "1 2 3\n1 2 3 4\n"), "too few values");
@@ -636,62 +638,72 @@ TEST_F(IoTest, PlyAsciiMalformedValues) {
 }
 
 TEST_F(IoTest, PlyBinaryTruncatedNeverZeroFilled) {
-  std::string b = "ply\nformat binary_little_endian 1.0\nelement vertex 2\nproperty float x\n"
-                  "property float y\nproperty float z\nelement face 1\n"
-                  "property list uchar int vertex_indices\nend_header\n";
+  std::string b =
+      "ply\nformat binary_little_endian 1.0\nelement vertex 2\nproperty float x\n"
+      "property float y\nproperty float z\nelement face 1\n"
+      "property list uchar int vertex_indices\nend_header\n";
   for (int i = 0; i < 6; ++i) b += le<float>(1.0f);
   b += char(3) + le<int32_t>(0) + le<int32_t>(1);  // list cut short
   expect_input_error(put("trunc_list.ply", b), "unexpected end of file");
 
   // faces first: the size pre-check counts 1 byte per face row, so a file cut inside the
   // vertices passes it and must fail while reading
-  std::string t = "ply\nformat binary_little_endian 1.0\nelement face 1\n"
-                  "property list uchar int vertex_indices\nelement vertex 3\nproperty float x\n"
-                  "property float y\nproperty float z\nproperty uchar q\nend_header\n";
+  std::string t =
+      "ply\nformat binary_little_endian 1.0\nelement face 1\n"
+      "property list uchar int vertex_indices\nelement vertex 3\nproperty float x\n"
+      "property float y\nproperty float z\nproperty uchar q\nend_header\n";
   t += char(3) + le<int32_t>(0) + le<int32_t>(1) + le<int32_t>(2);
   for (int i = 0; i < 3; ++i) t += le<float>(1.0f) + le<float>(2.0f) + le<float>(3.0f) + char(1);
   t.resize(t.size() - 7);
-  expect_input_error(put("trunc.ply", t), "unexpected end of file at byte " + std::to_string(t.size()));
+  expect_input_error(put("trunc.ply", t),
+                     "unexpected end of file at byte " + std::to_string(t.size()));
   expect_input_error(put("trunc.ply", t), "vertex 2");
 }
 
 TEST_F(IoTest, PlyBinaryCutInsideVerticesNamesTheEndByte) {
   // Caught by the size check before any allocation; the message still gives the end-of-file byte.
-  std::string b = "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n"
-                  "property float y\nproperty float z\nend_header\n";
+  std::string b =
+      "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n"
+      "property float y\nproperty float z\nend_header\n";
   for (int i = 0; i < 9; ++i) b += le<float>(float(i));
   b.resize(b.size() - 5);
-  expect_input_error(put("cut.ply", b), "unexpected end of file at byte " + std::to_string(b.size()));
+  expect_input_error(put("cut.ply", b),
+                     "unexpected end of file at byte " + std::to_string(b.size()));
 }
 
 TEST_F(IoTest, PlyDeclaredSizeRefusedBeforeAllocating) {
-  std::string b = "ply\nformat binary_little_endian 1.0\nelement vertex 1000000000000\n"
-                  "property double x\nproperty double y\nproperty double z\nend_header\n";
+  std::string b =
+      "ply\nformat binary_little_endian 1.0\nelement vertex 1000000000000\n"
+      "property double x\nproperty double y\nproperty double z\nend_header\n";
   b += std::string(100, '\0');
   const auto start = std::chrono::steady_clock::now();
   expect_input_error(put("big.ply", b), "declares 1000000000000 vertices");
   EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(2));
-  std::string a = "ply\nformat ascii 1.0\nelement vertex 1000000000\nproperty float x\n"
-                  "property float y\nproperty float z\nend_header\n1 2 3\n";
+  std::string a =
+      "ply\nformat ascii 1.0\nelement vertex 1000000000\nproperty float x\n"
+      "property float y\nproperty float z\nend_header\n1 2 3\n";
   expect_input_error(put("biga.ply", a), "expected 1000000000 vertices, file ends after 1");
 }
 
 TEST_F(IoTest, PlyHugeListLengthBounded) {
-  std::string b = "ply\nformat binary_little_endian 1.0\nelement vertex 1\nproperty float x\n"
-                  "property float y\nproperty float z\nelement face 1\n"
-                  "property list uint int vertex_indices\nend_header\n";
+  std::string b =
+      "ply\nformat binary_little_endian 1.0\nelement vertex 1\nproperty float x\n"
+      "property float y\nproperty float z\nelement face 1\n"
+      "property list uint int vertex_indices\nend_header\n";
   b += le<float>(1) + le<float>(2) + le<float>(3) + le<uint32_t>(0xFFFFFFF0u) + le<int32_t>(5);
   expect_input_error(put("list.ply", b), "runs past the end of the file");
 
-  std::string s = "ply\nformat binary_big_endian 1.0\nelement vertex 1\nproperty float x\n"
-                  "property float y\nproperty float z\nelement face 1\n"
-                  "property list short int vertex_indices\nend_header\n";
+  std::string s =
+      "ply\nformat binary_big_endian 1.0\nelement vertex 1\nproperty float x\n"
+      "property float y\nproperty float z\nelement face 1\n"
+      "property list short int vertex_indices\nend_header\n";
   s += be<float>(1) + be<float>(2) + be<float>(3) + be<int16_t>(-5);
   expect_input_error(put("neglist.ply", s), "negative list length");
 
-  std::string a = "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
-                  "property float z\nelement face 1\nproperty list uint int vertex_indices\n"
-                  "end_header\n1 2 3\n4294967280 1 2\n";
+  std::string a =
+      "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+      "property float z\nelement face 1\nproperty list uint int vertex_indices\n"
+      "end_header\n1 2 3\n4294967280 1 2\n";
   expect_input_error(put("lista.ply", a), "runs past the line");
 }
 
@@ -704,21 +716,26 @@ TEST_F(IoTest, PcdErrors) {
   expect_input_error(put("headonly.pcd", head + "WIDTH 5\nHEIGHT 1\nPOINTS 5\n"), "no DATA line");
   expect_input_error(put("nodata.pcd", head + "WIDTH 5\nHEIGHT 1\nPOINTS 5\nDATA binary\n"),
                      "declares 5 points");
-  expect_input_error(put("nodata_a.pcd", head + "WIDTH 2\nHEIGHT 1\nPOINTS 2\nDATA ascii\n1 2 3\n   \n"),
-                     "expected 2 points, file ends after 1");
+  expect_input_error(
+      put("nodata_a.pcd", head + "WIDTH 2\nHEIGHT 1\nPOINTS 2\nDATA ascii\n1 2 3\n   \n"),
+      "expected 2 points, file ends after 1");
   expect_input_error(put("wh.pcd", head + "WIDTH 5\nHEIGHT 2\nPOINTS 5\nDATA ascii\n"),
                      "does not match WIDTH*HEIGHT");
-  expect_input_error(put("len.pcd", "VERSION .7\nFIELDS x y z\nSIZE 4 4\nTYPE F F F\nWIDTH 1\n"
-                                    "POINTS 1\nDATA ascii\n1 2 3\n"),
+  expect_input_error(put("len.pcd",
+                         "VERSION .7\nFIELDS x y z\nSIZE 4 4\nTYPE F F F\nWIDTH 1\n"
+                         "POINTS 1\nDATA ascii\n1 2 3\n"),
                      "SIZE has 2");
-  expect_input_error(put("lenc.pcd", "VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\n"
-                                     "COUNT 1 1 1 1\nWIDTH 1\nPOINTS 1\nDATA ascii\n1 2 3\n"),
+  expect_input_error(put("lenc.pcd",
+                         "VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\n"
+                         "COUNT 1 1 1 1\nWIDTH 1\nPOINTS 1\nDATA ascii\n1 2 3\n"),
                      "COUNT has 4");
-  expect_input_error(put("noz.pcd", "VERSION .7\nFIELDS x y\nSIZE 4 4\nTYPE F F\nWIDTH 1\n"
-                                    "POINTS 1\nDATA ascii\n1 2\n"),
+  expect_input_error(put("noz.pcd",
+                         "VERSION .7\nFIELDS x y\nSIZE 4 4\nTYPE F F\nWIDTH 1\n"
+                         "POINTS 1\nDATA ascii\n1 2\n"),
                      "no 'z' field");
-  expect_input_error(put("type.pcd", "VERSION .7\nFIELDS x y z\nSIZE 4 4 3\nTYPE F F F\nWIDTH 1\n"
-                                     "POINTS 1\nDATA ascii\n1 2 3\n"),
+  expect_input_error(put("type.pcd",
+                         "VERSION .7\nFIELDS x y z\nSIZE 4 4 3\nTYPE F F F\nWIDTH 1\n"
+                         "POINTS 1\nDATA ascii\n1 2 3\n"),
                      "unsupported SIZE 3");
   expect_input_error(put("bad.pcd", head + "WIDTH 1\nPOINTS 1\nDATA ascii\n1 abc 3\n"),
                      "malformed number 'abc'");
@@ -734,8 +751,8 @@ TEST_F(IoTest, PcdCorruptCompressedSizes) {
   for (int i = 0; i < 12; ++i) raw += le<float>(float(i));
   const std::string good = lzf_literals(raw);
   // sanity: the good stream reads
-  EXPECT_EQ(read_cloud(put("ok.pcd", head + le<uint32_t>(uint32_t(good.size())) +
-                                         le<uint32_t>(48) + good))
+  EXPECT_EQ(read_cloud(
+                put("ok.pcd", head + le<uint32_t>(uint32_t(good.size())) + le<uint32_t>(48) + good))
                 .points(3, 2),
             11.0);
   expect_input_error(put("usize.pcd", head + le<uint32_t>(uint32_t(good.size())) +
@@ -746,9 +763,9 @@ TEST_F(IoTest, PcdCorruptCompressedSizes) {
   std::string bad = good;
   ASSERT_EQ(bad[33], char(15));
   bad[33] = char(31);  // second literal run longer than the data
-  expect_input_error(put("stream.pcd", head + le<uint32_t>(uint32_t(bad.size())) +
-                                           le<uint32_t>(48) + bad),
-                     "corrupt binary_compressed");
+  expect_input_error(
+      put("stream.pcd", head + le<uint32_t>(uint32_t(bad.size())) + le<uint32_t>(48) + bad),
+      "corrupt binary_compressed");
   const std::string backref = std::string("\x20\x05", 2);  // reference before the output start
   expect_input_error(put("ref.pcd", head + le<uint32_t>(2) + le<uint32_t>(48) + backref),
                      "corrupt binary_compressed");

@@ -10,8 +10,8 @@ using namespace nhnet;
 
 TEST(Metrics, HandComputedAngles) {
   Normals est(4, 3), gt(4, 3);
-  est << 1, 0, 0,   0, 1, 0,   -1, 0, 0,   1, 1, 0;
-  gt << 1, 0, 0,    1, 0, 0,   1, 0, 0,    1, 0, 0;
+  est << 1, 0, 0, 0, 1, 0, -1, 0, 0, 1, 1, 0;
+  gt << 1, 0, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0;
   const Eigen::VectorXd e = angle_errors_deg(est, gt);
   EXPECT_NEAR(e[0], 0.0, 1e-12);
   EXPECT_NEAR(e[1], 90.0, 1e-12);
@@ -27,8 +27,8 @@ TEST(Metrics, HandComputedAngles) {
 
 TEST(Metrics, InvalidRowsAreCountedNotAveraged) {
   Normals est(3, 3), gt(3, 3);
-  est << NAN, 0, 0,  0, 0, 0,  0, 0, 1;
-  gt << 1, 0, 0,     1, 0, 0,  0, 0, 1;
+  est << NAN, 0, 0, 0, 0, 0, 0, 0, 1;
+  gt << 1, 0, 0, 1, 0, 0, 0, 0, 1;
   const AngleStats s = angle_stats(est, gt);
   EXPECT_EQ(s.count, 1);
   EXPECT_EQ(s.invalid, 2);

@@ -3,12 +3,12 @@
 // lies on one face.
 #include "fixtures.hpp"
 
-#include "nhnet/geometry/bandwidth.hpp"
-#include "nhnet/pipeline/estimate.hpp"
-#include "nhnet/geometry/feature_detection.hpp"
 #include "nhnet/eval/metrics.hpp"
+#include "nhnet/geometry/bandwidth.hpp"
+#include "nhnet/geometry/feature_detection.hpp"
 #include "nhnet/geometry/mfps.hpp"
 #include "nhnet/geometry/pca.hpp"
+#include "nhnet/pipeline/estimate.hpp"
 
 #include <gtest/gtest.h>
 
@@ -101,8 +101,8 @@ TEST(Mfps, CandidatesOutsidePatchesKeepBaseNormals) {
   std::vector<uint8_t> cand(500, 0);
   MfpsOptions o;
   o.scales = {10, 20, 30};
-  const MfpsResult r = mfps_normals(f.points, knn, Eigen::VectorXd::Constant(500, 0.01), cand,
-                                    p.normals, o);
+  const MfpsResult r =
+      mfps_normals(f.points, knn, Eigen::VectorXd::Constant(500, 0.01), cand, p.normals, o);
   EXPECT_EQ(r.patches, 0);
   EXPECT_EQ((r.normals - p.normals).cwiseAbs().maxCoeff(), 0.0);
 }
@@ -195,6 +195,8 @@ TEST(Mfps, PcaBlendLowersRmsAtHighNoise) {
   }
   int64_t moved = 0;
   for (Eigen::Index i = 0; i < f.points.rows(); ++i)
-    if (!is_blended[size_t(i)]) moved += angle_deg(blended.normals.row(i).transpose(), plain.normals.row(i).transpose()) > 1e-9;
+    if (!is_blended[size_t(i)])
+      moved +=
+          angle_deg(blended.normals.row(i).transpose(), plain.normals.row(i).transpose()) > 1e-9;
   EXPECT_EQ(moved, 0);
 }

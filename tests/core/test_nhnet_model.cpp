@@ -2,11 +2,11 @@
 // training sees (nhnet.descriptors) equal the ones inference computes (describe), and the C++
 // model reproduces the Python model's outputs on them (golden file written by
 // tests/data/make_nhnet_golden.py). Also: metadata mismatch and unavailable CUDA are refused.
-#include "nhnet/learned/descriptors.hpp"
 #include "nhnet/errors.hpp"
+#include "nhnet/learned/descriptors.hpp"
+#include "nhnet/learned/nhnet_model.hpp"
 #include "nhnet/pipeline/describe.hpp"
 #include "nhnet/pipeline/estimate.hpp"
-#include "nhnet/learned/nhnet_model.hpp"
 
 #include <gtest/gtest.h>
 
@@ -74,7 +74,9 @@ TEST(NhNetModel, TrainingDescriptorsEqualInferenceDescriptors) {
     if (!g.valid[r]) continue;
     // Same call, same seed, deterministic whatever the thread count: bit-identical.
     ASSERT_EQ(std::memcmp(d.features.row(i).data(), g.features.row(Eigen::Index(r)).data(),
-                          sizeof(float) * size_t(g.features.cols())), 0) << "point " << i;
+                          sizeof(float) * size_t(g.features.cols())),
+              0)
+        << "point " << i;
   }
 }
 
@@ -147,7 +149,8 @@ TEST(NhNetModel, EstimateWithModelGivesUnitNormals) {
   const EstimateResult r = estimate_normals(g.points, o);
   EXPECT_EQ(r.device_used, "cpu");
   EXPECT_EQ(r.failed, 0);
-  for (Eigen::Index i = 0; i < r.normals.rows(); ++i) EXPECT_NEAR(r.normals.row(i).norm(), 1.0, 1e-9);
+  for (Eigen::Index i = 0; i < r.normals.rows(); ++i)
+    EXPECT_NEAR(r.normals.row(i).norm(), 1.0, 1e-9);
   // Block by block (small blocks) gives the same normals as one block: descriptors of a block
   // only depend on the whole cloud's neighbour table. 1e-5: float32 model output, see above.
   o.model.batch = 97;

@@ -5,16 +5,16 @@
 #include "fixtures.hpp"
 
 #include "nhnet/errors.hpp"
-#include "nhnet/pipeline/estimate.hpp"
 #include "nhnet/io/io.hpp"
 #include "nhnet/orient/orient.hpp"
+#include "nhnet/pipeline/estimate.hpp"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdio>
-#include <random>
 #include <limits>
+#include <random>
 #include <string>
 
 using namespace nhnet;
@@ -24,7 +24,8 @@ namespace {
 /// Share of rows where `normals` agrees in sign with `reference` (dot > 0).
 double agreement(const Normals& normals, const Normals& reference) {
   int64_t agree = 0;
-  for (Eigen::Index i = 0; i < normals.rows(); ++i) agree += normals.row(i).dot(reference.row(i)) > 0;
+  for (Eigen::Index i = 0; i < normals.rows(); ++i)
+    agree += normals.row(i).dot(reference.row(i)) > 0;
   return double(agree) / double(normals.rows());
 }
 
@@ -175,8 +176,8 @@ TEST(Orient, FloodFillLeavesAnOpenSurfaceToTheTree) {
   auto f = fixtures::plane(5000, 9);
   for (Eigen::Index i = 0; i < f.points.rows(); ++i)
     f.points(i, 2) = 0.2 * std::sin(2 * f.points(i, 0)) * std::cos(2 * f.points(i, 1));
-  const Normals start = fixtures::random_signs(
-      estimate_normals(f.points, pca_options()).normals, 4);
+  const Normals start =
+      fixtures::random_signs(estimate_normals(f.points, pca_options()).normals, 4);
   Normals with = start, without = start;
   const OrientResult r = orient_normals(f.points, with, OrientOptions{});
   EXPECT_EQ(r.voxel, 0.0);

@@ -1,13 +1,13 @@
-// Out-of-core estimation (core/src/pipeline/stream.cpp): an XYZ file processed in tiles through temporary
-// files gets the normals of the in-memory run, in the input's order; non-finite points fail and
-// are reported; bad input, PLY input and MST orientation are refused without an output; progress
-// reaches 1 and cancelling leaves neither an output nor temporary files.
+// Out-of-core estimation (core/src/pipeline/stream.cpp): an XYZ file processed in tiles through
+// temporary files gets the normals of the in-memory run, in the input's order; non-finite points
+// fail and are reported; bad input, PLY input and MST orientation are refused without an output;
+// progress reaches 1 and cancelling leaves neither an output nor temporary files.
 #include "fixtures.hpp"
 
 #include "nhnet/errors.hpp"
-#include "nhnet/pipeline/estimate.hpp"
-#include "nhnet/io/io.hpp"
 #include "nhnet/eval/metrics.hpp"
+#include "nhnet/io/io.hpp"
+#include "nhnet/pipeline/estimate.hpp"
 #include "nhnet/pipeline/stream.hpp"
 
 #include <gtest/gtest.h>
@@ -103,7 +103,8 @@ TEST_F(Stream, MfpsEqualsTheInMemoryRun) {
   ASSERT_EQ(out.size(), 30000);
   EXPECT_EQ(out.points, f.points);  // input order and coordinates kept exactly
   EXPECT_LT(share_differing(out.normals, whole.normals, 1e-3), 0.01);
-  EXPECT_NEAR(angle_stats(out.normals, f.normals).mean, angle_stats(whole.normals, f.normals).mean, 0.05);
+  EXPECT_NEAR(angle_stats(out.normals, f.normals).mean, angle_stats(whole.normals, f.normals).mean,
+              0.05);
   EXPECT_EQ(others({"cube.xyz", "out.xyzn"}), 0);  // no temporary files left
 }
 
@@ -119,9 +120,10 @@ TEST_F(Stream, PcaPlyOutputWithNonFinitePoints) {
   EXPECT_EQ(sr.tiles, 4);
   EXPECT_EQ(sr.failed, whole.failed);
   EXPECT_EQ(sr.failed, (12000 + 96) / 97);
-  EXPECT_NE(std::find(sr.warnings.begin(), sr.warnings.end(),
-                      std::to_string(sr.failed) + " non-finite points skipped (reported as failed)"),
-            sr.warnings.end());
+  EXPECT_NE(
+      std::find(sr.warnings.begin(), sr.warnings.end(),
+                std::to_string(sr.failed) + " non-finite points skipped (reported as failed)"),
+      sr.warnings.end());
   const Cloud out = read_cloud(path("s.ply"));
   ASSERT_EQ(out.size(), 12000);
   for (Eigen::Index i = 0; i < 12000; ++i)
@@ -145,7 +147,8 @@ TEST_F(Stream, ViewpointOrientation) {
   EXPECT_EQ(sr.orient.unoriented, 0);
   const Cloud out = read_cloud(path("o.xyzn"));
   int inward = 0;
-  for (Eigen::Index i = 0; i < out.size(); ++i) inward += out.normals.row(i).dot(-out.points.row(i)) > 0;
+  for (Eigen::Index i = 0; i < out.size(); ++i)
+    inward += out.normals.row(i).dot(-out.points.row(i)) > 0;
   EXPECT_EQ(inward, 9000);
 }
 

@@ -1,12 +1,12 @@
-// Spatial tiling (core/src/pipeline/tiling.cpp): a cloud processed in tiles with halos gets the normals of
-// the untiled run, for PCA, MFPS and NH-Net; non-finite points and duplicates across tile
-// borders are handled like the untiled run; progress reaches 1 and cancellation stops it.
+// Spatial tiling (core/src/pipeline/tiling.cpp): a cloud processed in tiles with halos gets the
+// normals of the untiled run, for PCA, MFPS and NH-Net; non-finite points and duplicates across
+// tile borders are handled like the untiled run; progress reaches 1 and cancellation stops it.
 #include "fixtures.hpp"
 
 #include "nhnet/errors.hpp"
-#include "nhnet/pipeline/estimate.hpp"
 #include "nhnet/eval/metrics.hpp"
 #include "nhnet/learned/nhnet_model.hpp"
+#include "nhnet/pipeline/estimate.hpp"
 
 #include <gtest/gtest.h>
 
@@ -102,7 +102,8 @@ TEST(Tiling, PcaWithNonFiniteAndDuplicatePoints) {
   EXPECT_LT(share_differing(tiled, whole, 1e-3), 0.005);
   for (int i = 0; i < 300; ++i) {
     if (i % 3 != 0) {
-      EXPECT_EQ(tiled.normals.row(f.points.rows() + i), tiled.normals.row((i * 37) % f.points.rows()));
+      EXPECT_EQ(tiled.normals.row(f.points.rows() + i),
+                tiled.normals.row((i * 37) % f.points.rows()));
     }
   }
 }

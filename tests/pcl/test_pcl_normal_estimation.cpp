@@ -44,7 +44,8 @@ NormalCloud pcl_normals(const Cloud::Ptr& cloud, int k, const pcl::IndicesPtr& i
   pcl::NormalEstimationOMP<pcl::PointXYZ, pcl::Normal> ne(2);
   ne.setInputCloud(cloud);
   if (indices) ne.setIndices(indices);
-  ne.setSearchMethod(pcl::search::KdTree<pcl::PointXYZ>::Ptr(new pcl::search::KdTree<pcl::PointXYZ>));
+  ne.setSearchMethod(
+      pcl::search::KdTree<pcl::PointXYZ>::Ptr(new pcl::search::KdTree<pcl::PointXYZ>));
   ne.setKSearch(k);
   NormalCloud out;
   ne.compute(out);
@@ -55,7 +56,8 @@ NormalCloud nhnet_pca_normals(const Cloud::Ptr& cloud, int k, const pcl::Indices
   nhnet::pcl::NHNetNormalEstimation<pcl::PointXYZ, pcl::Normal> ne(2);
   ne.setInputCloud(cloud);
   if (indices) ne.setIndices(indices);
-  ne.setSearchMethod(pcl::search::KdTree<pcl::PointXYZ>::Ptr(new pcl::search::KdTree<pcl::PointXYZ>));
+  ne.setSearchMethod(
+      pcl::search::KdTree<pcl::PointXYZ>::Ptr(new pcl::search::KdTree<pcl::PointXYZ>));
   ne.setMethod(nhnet::Method::Pca);
   ne.setKSearch(k);
   NormalCloud out;
@@ -70,7 +72,8 @@ bool is_nan_normal(const pcl::Normal& n) {
 
 /// Oriented angle in degrees (both classes flip towards the same viewpoint).
 double angle_deg(const pcl::Normal& a, const pcl::Normal& b) {
-  const Eigen::Vector3d u(a.normal_x, a.normal_y, a.normal_z), v(b.normal_x, b.normal_y, b.normal_z);
+  const Eigen::Vector3d u(a.normal_x, a.normal_y, a.normal_z),
+      v(b.normal_x, b.normal_y, b.normal_z);
   return std::acos(std::clamp(u.normalized().dot(v.normalized()), -1.0, 1.0)) * 180.0 / M_PI;
 }
 
@@ -165,7 +168,7 @@ TEST(PclNormalEstimation, OrganizedCloudKeepsWidthAndHeightAndDenseFlag) {
   const Eigen::Vector3f expected = Eigen::Vector3f(0.2f, 0.f, 1.f).normalized();
   for (const pcl::PointNormal& p : out) {
     // An exact plane: every normal is the plane's up to float rounding, and faces the viewpoint.
-    EXPECT_GT(p.getNormalVector3fMap().dot(expected), std::cos(0.01 * M_PI / 180)) ;
+    EXPECT_GT(p.getNormalVector3fMap().dot(expected), std::cos(0.01 * M_PI / 180));
     EXPECT_NEAR(p.curvature, 0.f, 1e-6f);
   }
 }
@@ -243,11 +246,13 @@ TEST(PclNormalEstimation, GoldenMfpsOutputUnchanged) {
   const std::string path = std::string(NHNET_SOURCE_DIR) + "/tests/golden/pcl_mfps.bin";
   if (const char* w = std::getenv("NHNET_GOLDEN_WRITE"); w && std::string(w) == "1") {
     std::ofstream(path, std::ios::binary)
-        .write(reinterpret_cast<const char*>(got.data()), std::streamsize(got.size() * sizeof(double)));
+        .write(reinterpret_cast<const char*>(got.data()),
+               std::streamsize(got.size() * sizeof(double)));
   }
   std::vector<double> want(got.size());
   std::ifstream in(path, std::ios::binary);
-  ASSERT_TRUE(in.read(reinterpret_cast<char*>(want.data()), std::streamsize(want.size() * sizeof(double))))
+  ASSERT_TRUE(
+      in.read(reinterpret_cast<char*>(want.data()), std::streamsize(want.size() * sizeof(double))))
       << path;
   for (size_t i = 0; i < got.size(); ++i) {
     if (std::isnan(want[i])) {

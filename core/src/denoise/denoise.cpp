@@ -117,8 +117,9 @@ void choose_radius(const Neighbors& tree, const DenoiseOptions& options, Denoise
   res.spacing = spacing_from_tree(tree, 6, sub);
   res.radius = options.radius_factor * res.spacing;
   if (!(res.radius > 0))
-    throw UnprocessableInput("denoise: the points have zero average spacing (all identical?); "
-                             "give a radius");
+    throw UnprocessableInput(
+        "denoise: the points have zero average spacing (all identical?); "
+        "give a radius");
 }
 
 /// Packs per-point neighbour lists into a compressed row table, freeing each list once copied.
@@ -206,8 +207,8 @@ int64_t drop_other_sheets(Neighbourhoods& nbh, const UsablePoints& in, double ga
     keep_offset[size_t(i)] = w;
     for (int64_t q = b; q < e; ++q) {
       const int32_t j = nbh.nb[size_t(q)];
-      const bool other_sheet = std::abs(ni.dot(in.nrm.row(j))) >= cos_par &&
-                               std::abs(ni.dot(in.pts.row(j) - pi)) > gap;
+      const bool other_sheet =
+          std::abs(ni.dot(in.nrm.row(j))) >= cos_par && std::abs(ni.dot(in.pts.row(j) - pi)) > gap;
       if (other_sheet)
         ++removed;
       else
@@ -326,7 +327,8 @@ void eq9_step(const Neighbourhoods& nbh, const PairTerms& pair, const Normals& n
       const Eigen::Vector3d nj = nrm.row(j).transpose();
       // w (d . n_i) s n_j + lambda (d . n_j) n_j
       delta += (double(pair.weight[size_t(q)]) * double(pair.sign[size_t(q)]) * d.dot(ni) +
-                lambda * d.dot(nj)) * nj;
+                lambda * d.dot(nj)) *
+               nj;
     }
     next.row(i) = (pi + options.step / double(e - b) * delta).transpose();
   });
@@ -335,8 +337,8 @@ void eq9_step(const Neighbourhoods& nbh, const PairTerms& pair, const Normals& n
 /// Iterations of Eq. 9 (Jacobi: every point reads the positions of the previous step), stopped
 /// once a step lowers the roughness by less than stop_drop; returns the final positions and
 /// records res.iterations and res.roughness.
-Points iterate_eq9(const UsablePoints& in, const Neighbourhoods& nbh,
-                   const DenoiseOptions& options, detail::Progress& progress, DenoiseResult& res) {
+Points iterate_eq9(const UsablePoints& in, const Neighbourhoods& nbh, const DenoiseOptions& options,
+                   detail::Progress& progress, DenoiseResult& res) {
   const RunContext& run = options.run;
   const PairTerms pair = pair_terms(nbh, in.nrm, options.sigma);
   Roughness roughness(nbh, in.nrm, run.threads);

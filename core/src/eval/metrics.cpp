@@ -80,8 +80,8 @@ Eigen::VectorXd surface_distances(const Points& points, const Points& reference,
     }
     tree.knn(p, 1, idx, d2);
     const Eigen::Vector3d off = p - reference.row(idx[0]).transpose();
-    const Eigen::Vector3d n = planes ? reference_normals.row(idx[0]).transpose().normalized()
-                                     : Eigen::Vector3d::Zero();
+    const Eigen::Vector3d n =
+        planes ? reference_normals.row(idx[0]).transpose().normalized() : Eigen::Vector3d::Zero();
     d[i] = planes && n.allFinite() ? std::abs(off.dot(n)) : off.norm();
   }
   return d;

@@ -1,5 +1,6 @@
 // Candidate detection near sharp features (paper Sec. 4, first paragraph): surface-variation
-// threshold from a TV-smoothed histogram, as in the authors' code (docs/design/paper.md#candidate-detection-authors-rule).
+// threshold from a TV-smoothed histogram, as in the authors' code
+// (docs/design/paper.md#candidate-detection-authors-rule).
 #include "nhnet/geometry/feature_detection.hpp"
 
 #include "nhnet/errors.hpp"

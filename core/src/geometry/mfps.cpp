@@ -450,15 +450,14 @@ Selection select_patches(const PatchScorer& scorer, int nt, int32_t nc) {
   const MfpsOptions& options = scorer.in.options;
   Selection sel{std::vector<double>(size_t(nc), -1.0), std::vector<double>(size_t(nc), -1.0),
                 std::vector<int64_t>(size_t(nc), -1), std::vector<int64_t>(size_t(nc), -1)};
-  best_patches(scorer, nt, [](int32_t, const Eigen::Vector3d&) { return true; }, sel.best,
-               sel.slot);
+  best_patches(
+      scorer, nt, [](int32_t, const Eigen::Vector3d&) { return true; }, sel.best, sel.slot);
   if (!(options.posterior_beta > 0 || options.edge_sigma_factor > 0)) return sel;
   const double cos_rival = std::cos(options.rival_angle_deg * M_PI / 180.0);
   const std::vector<Eigen::Vector3f>& plane_n = scorer.planes.n;
   auto is_rival = [&](int32_t c, const Eigen::Vector3d& nrm) {
     const int64_t win = sel.slot[size_t(c)];
-    return !(win < 0 ||
-             std::abs(double(plane_n[size_t(win)].cast<double>().dot(nrm))) > cos_rival);
+    return !(win < 0 || std::abs(double(plane_n[size_t(win)].cast<double>().dot(nrm))) > cos_rival);
   };
   best_patches(scorer, nt, is_rival, sel.rival, sel.rival_slot);
   return sel;

@@ -20,16 +20,14 @@ namespace {
 /// clouds of each cloud's mean squared angle error.
 constexpr int kBlendTerms = kMfpsBlendFeatures + (kMfpsBlendFeatures - 1) * kMfpsBlendFeatures / 2;
 constexpr std::array<double, kBlendTerms> kBlendCoefficients = {
-    -10.1513, 9.9937, 9.9467, 12.9313, 10.8916, 0.7740, -5.0653, 3.7326,
-    -17.1129, 4.5568, -6.6447, -10.1199, -2.9107, 7.3286, 2.5403, 3.6367,
-    1.1171, -3.1667, -2.1574, 4.8027, -3.2419, 21.8807, 2.1296, -5.0413,
-    -4.7616, -8.9267, -10.9376, -0.1804, -3.9886, 18.3819, -13.3190, 0.6775,
-    10.8244, 7.1389, 1.8630, -7.0517, -4.5196, -9.2979, 16.8540, -9.0520,
-    -4.4069, -12.1928, 5.6721, -1.7275, -6.2057, 0.5574, 17.8402, -13.5824,
-    9.7896, -7.1143, -7.1633, 2.8672, 3.8743, 4.4842, -8.2935, -25.4468,
-    4.7612, 3.6603, -1.3430, -2.9200, -1.9569, -7.7737, 7.4409, 0.7988,
-    9.1016, -9.8816, 2.2430, 9.8905, -34.1429, 20.6593, 10.9414, -12.3863,
-    24.0922, -3.1473, 7.4772, 1.7031, 2.7787, -1.5789};
+    -10.1513, 9.9937,   9.9467,  12.9313, 10.8916, 0.7740,   -5.0653,  3.7326,   -17.1129, 4.5568,
+    -6.6447,  -10.1199, -2.9107, 7.3286,  2.5403,  3.6367,   1.1171,   -3.1667,  -2.1574,  4.8027,
+    -3.2419,  21.8807,  2.1296,  -5.0413, -4.7616, -8.9267,  -10.9376, -0.1804,  -3.9886,  18.3819,
+    -13.3190, 0.6775,   10.8244, 7.1389,  1.8630,  -7.0517,  -4.5196,  -9.2979,  16.8540,  -9.0520,
+    -4.4069,  -12.1928, 5.6721,  -1.7275, -6.2057, 0.5574,   17.8402,  -13.5824, 9.7896,   -7.1143,
+    -7.1633,  2.8672,   3.8743,  4.4842,  -8.2935, -25.4468, 4.7612,   3.6603,   -1.3430,  -2.9200,
+    -1.9569,  -7.7737,  7.4409,  0.7988,  9.1016,  -9.8816,  2.2430,   9.8905,   -34.1429, 20.6593,
+    10.9414,  -12.3863, 24.0922, -3.1473, 7.4772,  1.7031,   2.7787,   -1.5789};
 
 /// Weight of the PCA normal in the final normal of a candidate.
 double blend_weight(const BlendFeatures& f) {
@@ -89,16 +87,16 @@ BlendFeatures blend_features(const TwoFaceChoice& choice, const Eigen::Vector3d&
   const double theta = line_angle(choice.winner, choice.rival);
   const double a_pca_win = line_angle(pca, choice.winner);
   BlendFeatures f{};
-  f[0] = 1;                                   // intercept
-  f[1] = 4 * p * (1 - p);                     // uncertainty of the final posterior
-  f[2] = theta;                               // winner-rival angle (rad)
-  f[3] = line_angle(pca, choice.normal);      // PCA vs this normal (rad)
+  f[0] = 1;                               // intercept
+  f[1] = 4 * p * (1 - p);                 // uncertainty of the final posterior
+  f[2] = theta;                           // winner-rival angle (rad)
+  f[3] = line_angle(pca, choice.normal);  // PCA vs this normal (rad)
   f[4] = std::min(choice.line_distance / (0.5 * sigma), 10.0) / 10;  // to the edge line
-  f[5] = 4 * p_score * (1 - p_score);         // uncertainty of the score posterior
-  f[6] = geo >= 0 ? std::abs(2 * geo - 1) : 0;  // confidence of the edge posterior
+  f[5] = 4 * p_score * (1 - p_score);                        // uncertainty of the score posterior
+  f[6] = geo >= 0 ? std::abs(2 * geo - 1) : 0;               // confidence of the edge posterior
   f[7] = a_pca_win + line_angle(pca, choice.rival) - theta;  // PCA off the winner-rival arc (rad)
-  f[10] = std::log(std::max(choice.score, 1e-6));  // winner's score D (Eq. 4)
-  f[11] = a_pca_win;                          // PCA vs winner (rad)
+  f[10] = std::log(std::max(choice.score, 1e-6));            // winner's score D (Eq. 4)
+  f[11] = a_pca_win;                                         // PCA vs winner (rad)
   for (double& v : f)
     if (!std::isfinite(v)) v = 0;
   return f;

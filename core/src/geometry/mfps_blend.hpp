@@ -1,7 +1,8 @@
 // Internal to MFPS (mfps.cpp): the PCA blend (MfpsOptions::pca_blend). Not the paper's: a
 // logistic weight, fitted by tools/fit_mfps_blend.py, of a quadratic form of features of the
 // two-face selection; each candidate with a rival is rotated towards its PCA normal by that
-// weight, which is large where the selection is likely wrong (see mfps.hpp, docs/design/decisions.md#mfps-pca-blend).
+// weight, which is large where the selection is likely wrong (see mfps.hpp,
+// docs/design/decisions.md#mfps-pca-blend).
 #pragma once
 
 #include "nhnet/geometry/mfps.hpp"
@@ -49,8 +50,7 @@ struct BlendCandidates {
 
 /// The blend features of one candidate (`pca`: its PCA normal, `sigma`: its sigma_i), all but
 /// the two neighbourhood ones (8, 9), which need every point's final normal first.
-BlendFeatures blend_features(const TwoFaceChoice& choice, const Eigen::Vector3d& pca,
-                             double sigma);
+BlendFeatures blend_features(const TwoFaceChoice& choice, const Eigen::Vector3d& pca, double sigma);
 
 /// Completes the features (8, 9) from the normals in `res` before any blending, records them
 /// (options.record_blend_features) and, with options.pca_blend, rotates each candidate's normal

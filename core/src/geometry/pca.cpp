@@ -41,7 +41,8 @@ PcaResult pca_normals(const Points& points, const IndexMatrix& knn, const PcaOpt
                       const RunContext& run) {
   const Eigen::Index n = points.rows();
   if (knn.rows() != n) throw InvalidOptions("pca_normals: knn must have one row per point");
-  const int k = options.k > 0 ? int(std::min<Eigen::Index>(options.k, knn.cols())) : int(knn.cols());
+  const int k =
+      options.k > 0 ? int(std::min<Eigen::Index>(options.k, knn.cols())) : int(knn.cols());
   if (k < 3) throw InvalidOptions("pca_normals: k must be at least 3");
   PcaResult r;
   r.normals.resize(n, 3);

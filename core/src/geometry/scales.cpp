@@ -9,7 +9,6 @@
 
 namespace nhnet {
 
-
 namespace {
 
 // Quantile of the per-point residuals that measures the noise.
@@ -25,7 +24,7 @@ struct Knot {
   double rho;
   double k;
 };
-constexpr Knot kTable[] = {{0.05, 12}, {0.15, 25}, {0.30, 30}, {0.50, 60},
+constexpr Knot kTable[] = {{0.05, 12}, {0.15, 25},  {0.30, 30}, {0.50, 60},
                            {0.80, 90}, {1.10, 150}, {1.40, 250}};
 }  // namespace
 

@@ -111,8 +111,8 @@ Cloud read_cloud(const std::string& path, const ReadOptions& options,
                  std::vector<std::string>* warnings) {
   const FileBytes file = load_file(path);
   if (file.bytes.empty()) input_error(path, "empty file");
-  const FileFormat format = options.format == FileFormat::Auto ? sniff(file, warnings)
-                                                               : options.format;
+  const FileFormat format =
+      options.format == FileFormat::Auto ? sniff(file, warnings) : options.format;
   switch (format) {
     case FileFormat::Ply: return read_ply(file, warnings);
     case FileFormat::Pcd: return read_pcd(file, warnings);

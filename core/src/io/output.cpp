@@ -31,11 +31,11 @@ void check_writable(const std::string& path, const Cloud& cloud) {
     if (e.values.size() != size_t(n))
       output_error(path, "extra property '" + e.name + "' has " + std::to_string(e.values.size()) +
                              " values for " + std::to_string(n) + " points");
-    const bool bad_name =
-        e.name.empty() || std::any_of(e.name.begin(), e.name.end(), [](char c) {
-          return !std::isgraph(static_cast<unsigned char>(c));
-        });
-    if (bad_name) output_error(path, "extra property name " + quote_token(e.name) + " is not writable");
+    const bool bad_name = e.name.empty() || std::any_of(e.name.begin(), e.name.end(), [](char c) {
+                            return !std::isgraph(static_cast<unsigned char>(c));
+                          });
+    if (bad_name)
+      output_error(path, "extra property name " + quote_token(e.name) + " is not writable");
   }
 }
 
@@ -54,7 +54,8 @@ std::vector<const ExtraProperty*> writable_extras(const Cloud& cloud,
 std::vector<Column> cloud_columns(const Cloud& cloud, const char* const (&normal_names)[3],
                                   const std::vector<std::string>& extra_reserved) {
   std::vector<Column> cols;
-  const ScalarType coord = points_fit_float(cloud.points) ? ScalarType::Float32 : ScalarType::Float64;
+  const ScalarType coord =
+      points_fit_float(cloud.points) ? ScalarType::Float32 : ScalarType::Float64;
   const char* xyz[3] = {"x", "y", "z"};
   for (int k = 0; k < 3; ++k) cols.push_back({xyz[k], coord, cloud.points.data(), k, 3});
   std::vector<std::string> reserved = {"x", "y", "z"};

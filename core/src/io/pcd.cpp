@@ -19,9 +19,9 @@ struct Field {
   size_t size = 0;
   char type = 'F';
   uint64_t count = 1;
-  bool supported = false;   ///< size/type combination maps to a ScalarType
+  bool supported = false;  ///< size/type combination maps to a ScalarType
   ScalarType scalar = ScalarType::Float32;
-  size_t offset = 0;        ///< byte offset inside one point (binary, ascii: value index)
+  size_t offset = 0;  ///< byte offset inside one point (binary, ascii: value index)
 };
 
 struct PcdHeader {
@@ -30,8 +30,8 @@ struct PcdHeader {
   DataKind data = DataKind::Ascii;
   size_t data_offset = 0;
   size_t data_line = 0;
-  size_t point_size = 0;     ///< bytes per point (binary layouts)
-  size_t point_values = 0;   ///< values per point (ascii)
+  size_t point_size = 0;    ///< bytes per point (binary layouts)
+  size_t point_values = 0;  ///< values per point (ascii)
 };
 
 std::string at_line(size_t line) { return " (line " + std::to_string(line) + ")"; }
@@ -119,10 +119,14 @@ uint64_t header_count(const FileBytes& file, const std::string& key, const std::
 /// legal), InputError for combinations that do not exist.
 bool scalar_for(const FileBytes& file, const Field& f, ScalarType& out) {
   static const std::array<std::pair<std::pair<char, size_t>, ScalarType>, 8> kTypes = {{
-      {{'I', 1}, ScalarType::Int8},    {{'U', 1}, ScalarType::UInt8},
-      {{'I', 2}, ScalarType::Int16},   {{'U', 2}, ScalarType::UInt16},
-      {{'I', 4}, ScalarType::Int32},   {{'U', 4}, ScalarType::UInt32},
-      {{'F', 4}, ScalarType::Float32}, {{'F', 8}, ScalarType::Float64},
+      {{'I', 1}, ScalarType::Int8},
+      {{'U', 1}, ScalarType::UInt8},
+      {{'I', 2}, ScalarType::Int16},
+      {{'U', 2}, ScalarType::UInt16},
+      {{'I', 4}, ScalarType::Int32},
+      {{'U', 4}, ScalarType::UInt32},
+      {{'F', 4}, ScalarType::Float32},
+      {{'F', 8}, ScalarType::Float64},
   }};
   for (const auto& [key, type] : kTypes) {
     if (key.first == f.type && key.second == f.size) {
@@ -154,13 +158,16 @@ void build_fields(const FileBytes& file, const RawHeader& raw, PcdHeader& header
     f.name = raw.fields[i];
     uint64_t size = 0;
     if (!parse_count(raw.size[i], 8, size) || size == 0)
-      input_error(file.path, "invalid SIZE " + quote_token(raw.size[i]) + " for field '" + f.name + "'");
+      input_error(file.path,
+                  "invalid SIZE " + quote_token(raw.size[i]) + " for field '" + f.name + "'");
     f.size = size_t(size);
     if (raw.type[i].size() != 1 || std::string("FIU").find(raw.type[i][0]) == std::string::npos)
-      input_error(file.path, "invalid TYPE " + quote_token(raw.type[i]) + " for field '" + f.name + "'");
+      input_error(file.path,
+                  "invalid TYPE " + quote_token(raw.type[i]) + " for field '" + f.name + "'");
     f.type = raw.type[i][0];
     if (raw.have_count && (!parse_count(raw.count[i], uint64_t(1) << 20, f.count) || f.count == 0))
-      input_error(file.path, "invalid COUNT " + quote_token(raw.count[i]) + " for field '" + f.name + "'");
+      input_error(file.path,
+                  "invalid COUNT " + quote_token(raw.count[i]) + " for field '" + f.name + "'");
     f.supported = scalar_for(file, f, f.scalar);
     f.offset = header.point_size;
     header.point_size += f.size * size_t(f.count);
@@ -182,12 +189,17 @@ PcdHeader parse_header(const FileBytes& file) {
   const uint64_t wh = (height != 0 && width > kMaxCount / height) ? kMaxCount + 1 : width * height;
   header.points = raw.points.empty() ? wh : header_count(file, "POINTS", raw.points);
   if (header.points != wh)
-    input_error(file.path, "POINTS " + std::to_string(header.points) + " does not match WIDTH*HEIGHT " +
-                               std::to_string(width) + "*" + std::to_string(height));
-  if (raw.data == "ascii") header.data = DataKind::Ascii;
-  else if (raw.data == "binary") header.data = DataKind::Binary;
-  else if (raw.data == "binary_compressed") header.data = DataKind::Compressed;
-  else input_error(file.path, "unknown DATA type " + quote_token(raw.data));
+    input_error(file.path, "POINTS " + std::to_string(header.points) +
+                               " does not match WIDTH*HEIGHT " + std::to_string(width) + "*" +
+                               std::to_string(height));
+  if (raw.data == "ascii")
+    header.data = DataKind::Ascii;
+  else if (raw.data == "binary")
+    header.data = DataKind::Binary;
+  else if (raw.data == "binary_compressed")
+    header.data = DataKind::Compressed;
+  else
+    input_error(file.path, "unknown DATA type " + quote_token(raw.data));
   return header;
 }
 
@@ -213,7 +225,8 @@ std::vector<Slot> plan_fields(const FileBytes& file, const PcdHeader& h, Cloud& 
     const int i = find_field(h, coords[k]);
     if (i < 0) input_error(file.path, "no '" + std::string(coords[k]) + "' field");
     if (!usable(h, i))
-      input_error(file.path, "field '" + std::string(coords[k]) + "' must be one scalar of at most 32-bit integer or float type");
+      input_error(file.path, "field '" + std::string(coords[k]) +
+                                 "' must be one scalar of at most 32-bit integer or float type");
     slots[size_t(i)] = Slot{Slot::Coord, k};
     has_normals = has_normals && usable(h, find_field(h, normals[k]));
   }
@@ -226,7 +239,8 @@ std::vector<Slot> plan_fields(const FileBytes& file, const PcdHeader& h, Cloud& 
     const Field& f = h.fields[i];
     if (f.name == "_" || slots[i].kind != Slot::Skip) continue;
     if (f.count != 1) {
-      warn(warnings, "field '" + f.name + "' (COUNT " + std::to_string(f.count) + ") not carried to the output");
+      warn(warnings, "field '" + f.name + "' (COUNT " + std::to_string(f.count) +
+                         ") not carried to the output");
     } else if (!f.supported) {
       warn(warnings, "field '" + f.name + "' (64-bit integer) not carried to the output");
     } else {
@@ -255,17 +269,21 @@ void read_ascii(const FileBytes& file, const PcdHeader& h, const std::vector<Slo
     for (size_t i = 0; i < h.fields.size(); ++i) {
       const Field& f = h.fields[i];
       for (uint64_t c = 0; c < f.count; ++c) {
-        if (!tokens.next(t)) input_error(file.path, "too few values in point " + std::to_string(r) + at_line(n));
+        if (!tokens.next(t))
+          input_error(file.path, "too few values in point " + std::to_string(r) + at_line(n));
         double v = 0;
         if (!parse_double(t, v))
-          input_error(file.path, "malformed number " + quote_token(t) + " in point " + std::to_string(r) + at_line(n));
+          input_error(file.path, "malformed number " + quote_token(t) + " in point " +
+                                     std::to_string(r) + at_line(n));
         if (f.supported && is_integer(f.scalar) && !fits_integer(v, f.scalar))
-          input_error(file.path, "value " + quote_token(t) + " does not fit field '" + f.name + "'" + at_line(n));
+          input_error(file.path, "value " + quote_token(t) + " does not fit field '" + f.name +
+                                     "'" + at_line(n));
         if (f.supported && f.scalar == ScalarType::Float32) v = double(float(v));
         if (c == 0 && slots) store(cloud, (*slots)[i], Eigen::Index(r), v);
       }
     }
-    if (!tokens.done()) input_error(file.path, "too many values in point " + std::to_string(r) + at_line(n));
+    if (!tokens.done())
+      input_error(file.path, "too many values in point " + std::to_string(r) + at_line(n));
   }
 }
 

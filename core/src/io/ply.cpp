@@ -18,7 +18,7 @@ enum class Encoding { Ascii, BinaryLittle, BinaryBig };
 struct Property {
   std::string name;
   bool is_list = false;
-  ScalarType type = ScalarType::Float32;        ///< scalar type, or list item type
+  ScalarType type = ScalarType::Float32;      ///< scalar type, or list item type
   ScalarType count_type = ScalarType::UInt8;  ///< list length type (lists only)
 };
 
@@ -38,14 +38,22 @@ struct Header {
 /// Maps a PLY type name (classic and sized spellings) to a scalar type.
 bool type_from_name(std::string_view name, ScalarType& type) {
   static const std::array<std::pair<std::string_view, ScalarType>, 16> kTypes = {{
-      {"char", ScalarType::Int8},     {"int8", ScalarType::Int8},
-      {"uchar", ScalarType::UInt8},   {"uint8", ScalarType::UInt8},
-      {"short", ScalarType::Int16},   {"int16", ScalarType::Int16},
-      {"ushort", ScalarType::UInt16}, {"uint16", ScalarType::UInt16},
-      {"int", ScalarType::Int32},     {"int32", ScalarType::Int32},
-      {"uint", ScalarType::UInt32},   {"uint32", ScalarType::UInt32},
-      {"float", ScalarType::Float32}, {"float32", ScalarType::Float32},
-      {"double", ScalarType::Float64}, {"float64", ScalarType::Float64},
+      {"char", ScalarType::Int8},
+      {"int8", ScalarType::Int8},
+      {"uchar", ScalarType::UInt8},
+      {"uint8", ScalarType::UInt8},
+      {"short", ScalarType::Int16},
+      {"int16", ScalarType::Int16},
+      {"ushort", ScalarType::UInt16},
+      {"uint16", ScalarType::UInt16},
+      {"int", ScalarType::Int32},
+      {"int32", ScalarType::Int32},
+      {"uint", ScalarType::UInt32},
+      {"uint32", ScalarType::UInt32},
+      {"float", ScalarType::Float32},
+      {"float32", ScalarType::Float32},
+      {"double", ScalarType::Float64},
+      {"float64", ScalarType::Float64},
   }};
   for (const auto& [n, t] : kTypes) {
     if (n == name) {
@@ -89,10 +97,14 @@ ScalarType parse_type(const FileBytes& file, std::string_view name, size_t line)
 /// Handles a "format <encoding> <version>" line.
 void parse_format_line(const FileBytes& file, const HeaderLine& h, size_t line, Header& header) {
   if (h.count != 3) input_error(file.path, "bad format line" + at_line(line));
-  if (h.token[1] == "ascii") header.encoding = Encoding::Ascii;
-  else if (h.token[1] == "binary_little_endian") header.encoding = Encoding::BinaryLittle;
-  else if (h.token[1] == "binary_big_endian") header.encoding = Encoding::BinaryBig;
-  else input_error(file.path, "unknown PLY format " + quote_token(h.token[1]) + at_line(line));
+  if (h.token[1] == "ascii")
+    header.encoding = Encoding::Ascii;
+  else if (h.token[1] == "binary_little_endian")
+    header.encoding = Encoding::BinaryLittle;
+  else if (h.token[1] == "binary_big_endian")
+    header.encoding = Encoding::BinaryBig;
+  else
+    input_error(file.path, "unknown PLY format " + quote_token(h.token[1]) + at_line(line));
   double version = 0;
   if (!parse_double(h.token[2], version) || version != 1.0)
     input_error(file.path, "unsupported PLY version " + quote_token(h.token[2]) + at_line(line));
@@ -114,15 +126,16 @@ void parse_element_line(const FileBytes& file, const HeaderLine& h, size_t line,
 
 /// Handles a "property <type> <name>" or "property list <count type> <item type> <name>" line.
 void parse_property_line(const FileBytes& file, const HeaderLine& h, size_t line, Header& header) {
-  if (header.elements.empty()) input_error(file.path, "property before any element" + at_line(line));
+  if (header.elements.empty())
+    input_error(file.path, "property before any element" + at_line(line));
   Property p;
   if (h.count >= 2 && h.token[1] == "list") {
     if (h.count != 5) input_error(file.path, "bad list property line" + at_line(line));
     p.is_list = true;
     p.count_type = parse_type(file, h.token[2], line);
     if (!is_integer(p.count_type))
-      input_error(file.path, "list count type " + quote_token(h.token[2]) + " is not an integer type" +
-                                 at_line(line));
+      input_error(file.path, "list count type " + quote_token(h.token[2]) +
+                                 " is not an integer type" + at_line(line));
     p.type = parse_type(file, h.token[3], line);
     p.name = std::string(h.token[4]);
   } else {
@@ -217,10 +230,11 @@ std::string check_declared_sizes(const FileBytes& file, const Header& header) {
     needed = add_sat(needed, mul_sat(e.count, row));
     if (needed > (ascii ? remaining + 1 : remaining))
       return "element " + quote_token(e.name) + " declares " + std::to_string(e.count) + " " +
-             plural(e.name) + " of at least " + std::to_string(row) + " bytes each, more than the " +
-             std::to_string(remaining) + " bytes after the header" +
-             (ascii ? std::string()
-                    : " (unexpected end of file at byte " + std::to_string(file.bytes.size()) + ")");
+             plural(e.name) + " of at least " + std::to_string(row) +
+             " bytes each, more than the " + std::to_string(remaining) + " bytes after the header" +
+             (ascii
+                  ? std::string()
+                  : " (unexpected end of file at byte " + std::to_string(file.bytes.size()) + ")");
   }
   return "";
 }
@@ -242,7 +256,8 @@ std::vector<Slot> plan_vertex(const FileBytes& file, const Element& e, Cloud& cl
   bool has_normals = true;
   for (int k = 0; k < 3; ++k) {
     const int i = find_property(e, coords[k]);
-    if (i < 0) input_error(file.path, "vertex element has no '" + std::string(coords[k]) + "' property");
+    if (i < 0)
+      input_error(file.path, "vertex element has no '" + std::string(coords[k]) + "' property");
     if (e.props[size_t(i)].is_list)
       input_error(file.path, "vertex property '" + std::string(coords[k]) + "' is a list");
     slots[size_t(i)] = Slot{Slot::Coord, k};
@@ -299,10 +314,10 @@ class BinaryBody {
                                   row_name(e, row));
     const size_t item = scalar_size(p.type);
     if (uint64_t(length) > (size_ - pos_) / item)
-      input_error(file_.path, "list of " + std::to_string(uint64_t(length)) + " items in " +
-                                  row_name(e, row) +
-                                  " runs past the end of the file (unexpected end of file at byte " +
-                                  std::to_string(size_) + ")");
+      input_error(file_.path,
+                  "list of " + std::to_string(uint64_t(length)) + " items in " + row_name(e, row) +
+                      " runs past the end of the file (unexpected end of file at byte " +
+                      std::to_string(size_) + ")");
     pos_ += size_t(length) * item;
   }
 
@@ -359,7 +374,8 @@ void read_ascii_row(const FileBytes& file, const Element& e, uint64_t r, std::st
       uint64_t length = 0;
       if (!parse_count(t, UINT32_MAX, length)) fail("invalid list length " + quote_token(t));
       for (uint64_t k = 0; k < length; ++k)
-        if (!tokens.next(t)) fail("list of " + std::to_string(length) + " items runs past the line");
+        if (!tokens.next(t))
+          fail("list of " + std::to_string(length) + " items runs past the line");
       continue;
     }
     double v = 0;
@@ -414,8 +430,10 @@ Cloud read_ply(const FileBytes& file, std::vector<std::string>* warnings) {
     input_error(file.path, too_big);
   }
   const std::vector<Slot> slots = plan_vertex(file, *vertex, cloud, warnings);
-  if (ascii) read_ascii(file, header, &slots, cloud, warnings);
-  else read_binary(file, header, slots, cloud, warnings);
+  if (ascii)
+    read_ascii(file, header, &slots, cloud, warnings);
+  else
+    read_binary(file, header, slots, cloud, warnings);
   for (const Element& e : header.elements)
     if (e.name != "vertex" && e.count > 0)
       warn(warnings, e.name + " element (" + std::to_string(e.count) + " " + plural(e.name) +
@@ -432,7 +450,8 @@ void write_ply(Sink& sink, const Cloud& cloud, bool ascii) {
   std::string out = "ply\nformat ";
   out += ascii ? "ascii" : "binary_little_endian";
   out += " 1.0\ncomment written by nhnet\nelement vertex " + std::to_string(cloud.size()) + "\n";
-  for (const Column& c : cols) out += std::string("property ") + ply_type_name(c.type) + " " + c.name + "\n";
+  for (const Column& c : cols)
+    out += std::string("property ") + ply_type_name(c.type) + " " + c.name + "\n";
   out += "end_header\n";
   write_rows(sink, cols, cloud.size(), ascii, out);
 }

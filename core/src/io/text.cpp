@@ -132,13 +132,34 @@ bool is_integer(ScalarType type) {
 /// Inclusive range of an integer scalar type.
 static void integer_range(ScalarType type, double& lo, double& hi) {
   switch (type) {
-    case ScalarType::Int8: lo = -128; hi = 127; return;
-    case ScalarType::UInt8: lo = 0; hi = 255; return;
-    case ScalarType::Int16: lo = -32768; hi = 32767; return;
-    case ScalarType::UInt16: lo = 0; hi = 65535; return;
-    case ScalarType::Int32: lo = -2147483648.0; hi = 2147483647.0; return;
-    case ScalarType::UInt32: lo = 0; hi = 4294967295.0; return;
-    default: lo = -std::numeric_limits<double>::infinity(); hi = -lo; return;
+    case ScalarType::Int8:
+      lo = -128;
+      hi = 127;
+      return;
+    case ScalarType::UInt8:
+      lo = 0;
+      hi = 255;
+      return;
+    case ScalarType::Int16:
+      lo = -32768;
+      hi = 32767;
+      return;
+    case ScalarType::UInt16:
+      lo = 0;
+      hi = 65535;
+      return;
+    case ScalarType::Int32:
+      lo = -2147483648.0;
+      hi = 2147483647.0;
+      return;
+    case ScalarType::UInt32:
+      lo = 0;
+      hi = 4294967295.0;
+      return;
+    default:
+      lo = -std::numeric_limits<double>::infinity();
+      hi = -lo;
+      return;
   }
 }
 
@@ -233,7 +254,8 @@ void append_number(double value, ScalarType type, std::string& out) {
   char buf[64];
   std::to_chars_result r{};
   if (is_integer(type)) {
-    r = std::to_chars(buf, buf + sizeof(buf), static_cast<long long>(to_integer_value(value, type)));
+    r = std::to_chars(buf, buf + sizeof(buf),
+                      static_cast<long long>(to_integer_value(value, type)));
   } else if (std::isnan(value)) {
     out += "nan";  // no "-nan": some readers only know the plain spelling
     return;

@@ -38,7 +38,8 @@ FeatureNormals bilateral_filter(const Points& points, const Normals& normals,
     }
     const Eigen::Vector3d pi = points.row(first + i).transpose();
     double spacing = 0;
-    for (int c = 1; c <= options.spacing_k; ++c) spacing += (points.row(knn(i, c)).transpose() - pi).norm();
+    for (int c = 1; c <= options.spacing_k; ++c)
+      spacing += (points.row(knn(i, c)).transpose() - pi).norm();
     spacing /= options.spacing_k;
     out.block<1, 3>(i, 0) = ni.transpose();
     for (int a = 0; a < ns; ++a) {

@@ -4,9 +4,9 @@
 
 #include "nhnet/errors.hpp"
 
-#include <torch/script.h>
-#include <torch/cuda.h>
 #include <ATen/Parallel.h>
+#include <torch/cuda.h>
+#include <torch/script.h>
 
 #include <omp.h>
 
@@ -78,16 +78,17 @@ void check_numbers(const std::string& meta, const std::string& key, const std::v
   if (!same) {
     std::ostringstream w;
     for (double v : want) w << v << ' ';
-    throw ModelError("model " + path + " was trained with " + key + " = " +
-                         json_value(meta, key) + " but this nhnet computes " + w.str() +
-                         "; retrain it (nhnet-train) or use a model made for this version");
+    throw ModelError("model " + path + " was trained with " + key + " = " + json_value(meta, key) +
+                     " but this nhnet computes " + w.str() +
+                     "; retrain it (nhnet-train) or use a model made for this version");
   }
 }
 
 void check_metadata(const std::string& meta, const std::string& path) {
   if (json_value(meta, "format") != "nhnet-model")
-    throw ModelError("model " + path + " has no nhnet metadata (nhnet.json); export it with "
-                         "nhnet-export");
+    throw ModelError("model " + path +
+                     " has no nhnet metadata (nhnet.json); export it with "
+                     "nhnet-export");
   const DescriptorOptions d;
   check_numbers(meta, "descriptor_version", {double(kDescriptorVersion)}, path);
   check_numbers(meta, "descriptor_size", {double(descriptor_size(d))}, path);
@@ -97,8 +98,8 @@ void check_metadata(const std::string& meta, const std::string& path) {
   check_numbers(meta, "neighborhood_factor", {d.neighborhood_factor}, path);
   if (json_value(meta, "height_normalisation") != kHeightNormalisation)
     throw ModelError("model " + path + " expects height normalisation '" +
-                         json_value(meta, "height_normalisation") + "' but this nhnet computes '" +
-                         kHeightNormalisation + "'; retrain it (nhnet-train)");
+                     json_value(meta, "height_normalisation") + "' but this nhnet computes '" +
+                     kHeightNormalisation + "'; retrain it (nhnet-train)");
 }
 
 }  // namespace
@@ -125,18 +126,21 @@ NhNetModel::NhNetModel(const std::string& path, const std::string& device, int t
   if (threads < 0) throw InvalidOptions("threads must be >= 0");
   const bool cuda = torch::cuda::is_available();
   if (device == "cuda" && !cuda)
-    throw DeviceUnavailable("--device cuda: the linked libtorch has no CUDA support or no GPU is "
-                         "visible; use --device cpu (or auto)");
+    throw DeviceUnavailable(
+        "--device cuda: the linked libtorch has no CUDA support or no GPU is "
+        "visible; use --device cpu (or auto)");
   impl_->device = (device == "cuda" || (device == "auto" && cuda)) ? "cuda" : "cpu";
   impl_->dev = impl_->device == "cuda" ? torch::Device(torch::kCUDA) : torch::Device(torch::kCPU);
   if (!file_exists(path))
-    throw ModelError("no NH-Net model at '" + path + "': pass --model PATH (train one with "
+    throw ModelError("no NH-Net model at '" + path +
+                     "': pass --model PATH (train one with "
                      "nhnet-train, see training/README.md) or use --method mfps");
   torch::jit::ExtraFilesMap extra{{"nhnet.json", ""}};
   try {
     impl_->module = torch::jit::load(path, impl_->dev, extra);
   } catch (const std::exception& e) {
-    throw ModelError("cannot load NH-Net model '" + path + "' (truncated, corrupt or not a "
+    throw ModelError("cannot load NH-Net model '" + path +
+                     "' (truncated, corrupt or not a "
                      "TorchScript archive): " +
                      torch_message(e));
   }
@@ -146,7 +150,8 @@ NhNetModel::NhNetModel(const std::string& path, const std::string& device, int t
   at::set_num_threads(threads > 0 ? threads : std::max(1, omp_get_max_threads()));
   // Frozen (weights inlined as constants, batch norms folded into the layers before them) and,
   // on the CPU, optimised for inference (oneDNN convolutions): 3.3x the points per second of
-  // the scripted module on 2 cores, outputs equal to 1e-6 (docs/design/decisions.md#nh-net-inference-frozen-and-optimised-on-load). A model the passes
+  // the scripted module on 2 cores, outputs equal to 1e-6
+  // (docs/design/decisions.md#nh-net-inference-frozen-and-optimised-on-load). A model the passes
   // cannot handle runs as it was loaded.
   try {
     torch::jit::Module frozen = torch::jit::freeze(impl_->module);
@@ -160,7 +165,8 @@ NhNetModel::NhNetModel(const std::string& path, const std::string& device, int t
   try {
     torch::InferenceMode guard;
     const torch::Tensor y =
-        impl_->module.forward({torch::zeros({2, dsize}, torch::kFloat32).to(impl_->dev)}).toTensor();
+        impl_->module.forward({torch::zeros({2, dsize}, torch::kFloat32).to(impl_->dev)})
+            .toTensor();
     if (y.dim() != 2 || y.size(0) != 2 || y.size(1) != 3)
       throw ModelError("model " + path + " maps 2 x " + std::to_string(dsize) +
                        " descriptors to a tensor of shape " + c10::str(y.sizes()) +

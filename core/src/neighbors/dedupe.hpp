@@ -28,7 +28,9 @@ inline std::vector<int64_t> dedupe_exact(const Points& points, std::vector<int64
   std::vector<Key> keys(rows.size());
   for (size_t i = 0; i < rows.size(); ++i)
     keys[i] = Key{points(rows[i], 0), points(rows[i], 1), points(rows[i], 2), rows[i]};
-  const auto same = [](const Key& a, const Key& b) { return a.x == b.x && a.y == b.y && a.z == b.z; };
+  const auto same = [](const Key& a, const Key& b) {
+    return a.x == b.x && a.y == b.y && a.z == b.z;
+  };
   std::sort(keys.begin(), keys.end(), [](const Key& a, const Key& b) {
     if (a.x != b.x) return a.x < b.x;
     if (a.y != b.y) return a.y < b.y;

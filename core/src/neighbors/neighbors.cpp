@@ -1,9 +1,11 @@
 // Neighbour search: one nanoflann kd-tree (float, re-centred coordinates) per cloud.
-// Chosen by measurement against PCL's FLANN tree and CGAL's kd-tree (docs/design/decisions.md#kd-tree-nanoflann-with-queries-in-leaf-order).
-// After the build the coordinates are stored in the tree's leaf order (the tree's index array
-// becomes the identity), so a leaf's points are contiguous in memory and knn_all visits queries
-// in that order: the same tree, the same visiting order, the same results (ties included), 20-30 %
-// less neighbour-search time at 1M points (docs/design/decisions.md#kd-tree-nanoflann-with-queries-in-leaf-order). Indices map back to input order.
+// Chosen by measurement against PCL's FLANN tree and CGAL's kd-tree
+// (docs/design/decisions.md#kd-tree-nanoflann-with-queries-in-leaf-order). After the build the
+// coordinates are stored in the tree's leaf order (the tree's index array becomes the identity), so
+// a leaf's points are contiguous in memory and knn_all visits queries in that order: the same tree,
+// the same visiting order, the same results (ties included), 20-30 % less neighbour-search time at
+// 1M points (docs/design/decisions.md#kd-tree-nanoflann-with-queries-in-leaf-order). Indices map
+// back to input order.
 #include "nhnet/neighbors/neighbors.hpp"
 
 #include "nhnet/errors.hpp"
@@ -22,7 +24,9 @@ struct FloatCloud {
   size_t kdtree_get_point_count() const { return xyz.size() / 3; }
   float kdtree_get_pt(size_t i, size_t d) const { return xyz[3 * i + d]; }
   template <class BBOX>
-  bool kdtree_get_bbox(BBOX&) const { return false; }
+  bool kdtree_get_bbox(BBOX&) const {
+    return false;
+  }
 };
 using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, FloatCloud>,
                                                  FloatCloud, 3, uint32_t>;
@@ -44,7 +48,8 @@ Neighbors::Neighbors(const Points& points) : impl_(std::make_unique<Impl>()) {
   for (Eigen::Index i = 0; i < n; ++i)
     for (int d = 0; d < 3; ++d)
       impl_->cloud.xyz[3 * i + d] = static_cast<float>(points(i, d) - impl_->centre[d]);
-  impl_->tree = std::make_unique<Tree>(3, impl_->cloud, nanoflann::KDTreeSingleIndexAdaptorParams(10));
+  impl_->tree =
+      std::make_unique<Tree>(3, impl_->cloud, nanoflann::KDTreeSingleIndexAdaptorParams(10));
   impl_->tree->buildIndex();
   // Leaf order: permute the coordinates by the tree's index array and make that array the
   // identity. The nodes (split planes, bounding boxes, leaf ranges) are untouched.
@@ -52,7 +57,8 @@ Neighbors::Neighbors(const Points& points) : impl_(std::make_unique<Impl>()) {
   impl_->original.assign(vind.begin(), vind.end());
   std::vector<float> sorted(3 * size_t(n));
   for (size_t p = 0; p < size_t(n); ++p) {
-    for (int d = 0; d < 3; ++d) sorted[3 * p + d] = impl_->cloud.xyz[3 * size_t(impl_->original[p]) + d];
+    for (int d = 0; d < 3; ++d)
+      sorted[3 * p + d] = impl_->cloud.xyz[3 * size_t(impl_->original[p]) + d];
     vind[p] = uint32_t(p);
   }
   impl_->cloud.xyz.swap(sorted);
@@ -121,7 +127,8 @@ void Neighbors::knn_rows(int k, const std::vector<int64_t>& rows, IndexMatrix& i
     std::vector<int64_t> pos(size_t(n), -1);
     for (size_t p = 0; p < size_t(n); ++p) pos[impl_->original[p]] = int64_t(p);
     for (size_t i = 0; i < rows.size(); ++i) {
-      if (rows[i] < 0 || rows[i] >= n) throw InvalidOptions("Neighbors::knn_rows: row out of range");
+      if (rows[i] < 0 || rows[i] >= n)
+        throw InvalidOptions("Neighbors::knn_rows: row out of range");
       leaf[i] = pos[size_t(rows[i])];
     }
   }

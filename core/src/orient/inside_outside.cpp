@@ -54,8 +54,8 @@ double step_offset(int k) {
 
 // The side of direction `dir` at p: +1 / -1 / 0 as above, over kSteps and `extra` steps past
 // them; *leaked is set when both offsets of a step reached the outside.
-int8_t side(const Grid& g, const Eigen::RowVector3d& p, const Eigen::RowVector3d& dir,
-            bool* leaked, int extra) {
+int8_t side(const Grid& g, const Eigen::RowVector3d& p, const Eigen::RowVector3d& dir, bool* leaked,
+            int extra) {
   for (int k = 0; k < kBaseSteps + extra; ++k) {
     const double s = step_offset(k);
     const Eigen::RowVector3d d = (s * g.h) * dir;
@@ -85,9 +85,10 @@ int8_t grid_vote(const Grid& g, const Eigen::RowVector3d& p, const Eigen::RowVec
   int sum = 0;
   for (int k = 0; k < 6; ++k) {
     const double phi = double(k) * M_PI / 3;
-    sum += side(g, p,
-                std::cos(M_PI / 6) * n + std::sin(M_PI / 6) * (std::cos(phi) * t1 + std::sin(phi) * t2),
-                nullptr, 0);
+    sum += side(
+        g, p,
+        std::cos(M_PI / 6) * n + std::sin(M_PI / 6) * (std::cos(phi) * t1 + std::sin(phi) * t2),
+        nullptr, 0);
   }
   return int8_t(sum > 0 ? 1 : sum < 0 ? -1 : 0);
 }

@@ -26,9 +26,10 @@ struct InsideOutsideOptions {
   /// Dilations of the occupied voxels (6-connected steps) that close the gaps between samples,
   /// tried in order at each voxel size: a finer voxel closed by one more step resolves thin
   /// parts better than the next coarser voxel closed by two (rotor's blades, 2-6 spacings
-  /// thick: 98.93 -> 99.09 % correct signs with NH-Net normals, docs/design/decisions.md#flood-fill-one-more-dilation-before-a-coarser-voxel), and
-  /// the smaller dilation first keeps every cloud watertight with it as it was (couplingdown
-  /// lost 0.1 point to a dilation of 3 alone).
+  /// thick: 98.93 -> 99.09 % correct signs with NH-Net normals,
+  /// docs/design/decisions.md#flood-fill-one-more-dilation-before-a-coarser-voxel), and the smaller
+  /// dilation first keeps every cloud watertight with it as it was (couplingdown lost 0.1 point to
+  /// a dilation of 3 alone).
   std::vector<int> dilations{2, 3};
   /// A grid is watertight when fewer than this share of the points have both offsets outside.
   double max_leak = 0.05;

@@ -2,10 +2,10 @@
 // see orient.hpp. The arrays never change order.
 #include "nhnet/orient/orient.hpp"
 
-#include "nhnet/errors.hpp"
-#include "nhnet/neighbors/neighbors.hpp"
-#include "nhnet/geometry/pca.hpp"
 #include "neighbors/dedupe.hpp"
+#include "nhnet/errors.hpp"
+#include "nhnet/geometry/pca.hpp"
+#include "nhnet/neighbors/neighbors.hpp"
 #include "orient/inside_outside.hpp"
 #include "util/parallel.hpp"
 #include "util/stats.hpp"
@@ -26,7 +26,8 @@ OrientMode orient_mode_from_string(const std::string& name) {
   if (name == "keep") return OrientMode::Keep;
   if (name == "viewpoint") return OrientMode::Viewpoint;
   if (name == "mst") return OrientMode::Mst;
-  throw InvalidOptions("unknown orientation '" + name + "' (expected keep, viewpoint, mst or none)");
+  throw InvalidOptions("unknown orientation '" + name +
+                       "' (expected keep, viewpoint, mst or none)");
 }
 
 const char* to_string(OrientMode mode) {
@@ -73,9 +74,9 @@ using Adjacency = std::vector<std::vector<int32_t>>;
 
 /// The symmetric k-NN graph of the points being oriented, and the scales measured on it.
 struct Graph {
-  Adjacency adj;  ///< each point's neighbours, sorted, without itself
-  double noise = 0;  ///< typical offset of a neighbour from a point's guide plane
-  double spacing = 0;  ///< mean distance to the nearest other point (the flood fill's unit)
+  Adjacency adj;              ///< each point's neighbours, sorted, without itself
+  double noise = 0;           ///< typical offset of a neighbour from a point's guide plane
+  double spacing = 0;         ///< mean distance to the nearest other point (the flood fill's unit)
   double median_spacing = 0;  ///< its median (blind to a few far outliers)
 };
 
@@ -197,7 +198,11 @@ class Prim {
  public:
   Prim(const Points& pts, Normals& guide, const Graph& graph, const OrientOptions& options,
        detail::Progress& progress)
-      : pts_(pts), guide_(guide), graph_(graph), options_(options), progress_(progress),
+      : pts_(pts),
+        guide_(guide),
+        graph_(graph),
+        options_(options),
+        progress_(progress),
         visited_(static_cast<size_t>(pts.rows()), 0) {}
 
   /// Consistency of the pair (i, j): c_ij > 0 when the signs agree. Hoppe: g_i . g_j.
@@ -294,8 +299,8 @@ std::unique_ptr<detail::InsideOutside> grow_from_sides(Prim& prim, const Points&
                                                        OrientResult& res) {
   detail::InsideOutsideOptions io;
   io.typical_spacing = graph.median_spacing;
-  auto sides = std::make_unique<detail::InsideOutside>(pts, guide, graph.spacing, io,
-                                                       options.run.threads);
+  auto sides =
+      std::make_unique<detail::InsideOutside>(pts, guide, graph.spacing, io, options.run.threads);
   res.voxel = sides->voxel();
   std::vector<int8_t> vote = sides->votes();
   const Eigen::Index m = pts.rows();
@@ -359,8 +364,7 @@ std::vector<uint8_t> copy_signs(const Points& pts, const Normals& guide,
     double d = normals.row(row).dot(guide.row(li));
     // A normal far from its guide (a sharp normal at an edge, where the guide is the bisector)
     // takes its own side from the flood fill where that decides.
-    if (sides && sides->voxel() > 0 &&
-        std::abs(d) < kOwnVoteCos * normals.row(row).norm()) {
+    if (sides && sides->voxel() > 0 && std::abs(d) < kOwnVoteCos * normals.row(row).norm()) {
       const int8_t v = sides->vote(pts.row(li), normals.row(row).normalized());
       if (v != 0) d = double(v);
     }
@@ -504,17 +508,12 @@ OrientResult orient_normals(const Points& points, Normals& normals, const Orient
   OrientResult res;
   const std::vector<int64_t> used = valid_rows(points, normals, res);
   switch (options.mode) {
-    case OrientMode::None:
-      break;
-    case OrientMode::Keep:
-      orient_keep(normals, reference, used, res);
-      break;
+    case OrientMode::None: break;
+    case OrientMode::Keep: orient_keep(normals, reference, used, res); break;
     case OrientMode::Viewpoint:
       orient_viewpoint(points, normals, options.viewpoint, used, res);
       break;
-    case OrientMode::Mst:
-      orient_mst_deduplicated(points, normals, used, options, res);
-      break;
+    case OrientMode::Mst: orient_mst_deduplicated(points, normals, used, options, res); break;
   }
   return res;
 }

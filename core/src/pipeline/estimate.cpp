@@ -2,17 +2,17 @@
 // scale choice, PCA for smooth points and MFPS near sharp features.
 #include "nhnet/pipeline/estimate.hpp"
 
+#include "neighbors/dedupe.hpp"
 #include "nhnet/errors.hpp"
-#include "nhnet/neighbors/neighbors.hpp"
-#include "nhnet/geometry/pca.hpp"
 #include "nhnet/geometry/bandwidth.hpp"
 #include "nhnet/geometry/feature_detection.hpp"
 #include "nhnet/geometry/mfps.hpp"
+#include "nhnet/geometry/pca.hpp"
 #include "nhnet/geometry/scales.hpp"
-#include "neighbors/dedupe.hpp"
-#include "util/stats.hpp"
+#include "nhnet/neighbors/neighbors.hpp"
 #include "pipeline/estimator.hpp"
 #include "util/parallel.hpp"
+#include "util/stats.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -86,7 +86,8 @@ Probe probe_noise(const Points& pts, const Neighbors& tree, const RunContext& ru
     const size_t count = size_t(kProbeAllPoints);
     std::vector<int64_t> rows(count);
     const double step = double(m) / double(count);  // > 1: distinct rows, first row 0
-    for (size_t r = 0; r < count; ++r) rows[r] = std::min<int64_t>(int64_t(m) - 1, int64_t(double(r) * step));
+    for (size_t r = 0; r < count; ++r)
+      rows[r] = std::min<int64_t>(int64_t(m) - 1, int64_t(double(r) * step));
     IndexMatrix probe;
     tree.knn_rows(kprobe, rows, probe, &d2, narrow(run, 0.02, 0.06));
     residual.resize(probe.rows());
@@ -103,7 +104,8 @@ Probe probe_from_rows(const DistanceMatrix& d2, const Eigen::VectorXd& residual)
   Probe out;
   out.noise = estimate_noise(d2, residual);
   std::vector<double> far(size_t(d2.rows()));
-  for (Eigen::Index i = 0; i < d2.rows(); ++i) far[size_t(i)] = std::sqrt(double(d2(i, d2.cols() - 1)));
+  for (Eigen::Index i = 0; i < d2.rows(); ++i)
+    far[size_t(i)] = std::sqrt(double(d2(i, d2.cols() - 1)));
   out.far_radius = quantile(std::move(far), 0.99);
   out.far_k = int(d2.cols());
   return out;
@@ -121,7 +123,7 @@ Canonical canonical_points(const Points& points, std::vector<std::string>& warni
   c.finite_count = finite_count;
   if (Eigen::Index(finite_count) < n)
     warnings.push_back(std::to_string(n - Eigen::Index(finite_count)) +
-                           " non-finite points skipped (reported as failed)");
+                       " non-finite points skipped (reported as failed)");
   // Exact duplicates: only the first copy of a position takes part (k copies of one point would
   // fill its neighbourhood and leave no plane); every copy gets that copy's normal, so a cloud
   // with duplicated points gets the same normals as the deduplicated cloud. The points are
@@ -129,15 +131,15 @@ Canonical canonical_points(const Points& points, std::vector<std::string>& warni
   // order.
   c.copies = dedupe_exact(points, finite);
   if (finite.size() < 3)
-    throw UnprocessableInput(
-        "only " + std::to_string(finite.size()) +
-        (finite.size() < finite_count ? " distinct" : "") + " finite points" +
-        (finite.size() < finite_count ? " (" + std::to_string(finite_count) + " with duplicates)"
-                                      : std::string()) +
-        "; at least 3 are needed");
+    throw UnprocessableInput("only " + std::to_string(finite.size()) +
+                             (finite.size() < finite_count ? " distinct" : "") + " finite points" +
+                             (finite.size() < finite_count
+                                  ? " (" + std::to_string(finite_count) + " with duplicates)"
+                                  : std::string()) +
+                             "; at least 3 are needed");
   if (finite.size() < finite_count)
     warnings.push_back(std::to_string(finite_count - finite.size()) +
-                           " exact duplicate points share the normal of their first copy");
+                       " exact duplicate points share the normal of their first copy");
   const Eigen::Index m = Eigen::Index(finite.size());
   Points& pts = c.pts;
   pts.resize(m, 3);
@@ -246,8 +248,10 @@ int table_depth(const EstimateOptions& options, const ScaleChoice& choice, Eigen
 /// The one neighbour table every stage shares, `kdepth` deep. Rows are sorted by distance, so
 /// the probe's table serves any smaller size as its prefix.
 void neighbour_table(const Neighbors& tree, int kdepth, const RunContext& run, IndexMatrix& knn) {
-  if (kdepth > knn.cols()) tree.knn_all(kdepth, knn, nullptr, detail::narrow(run, 0.2, 0.35));
-  else if (knn.cols() > kdepth) knn = knn.leftCols(kdepth).eval();  // only what the stages use
+  if (kdepth > knn.cols())
+    tree.knn_all(kdepth, knn, nullptr, detail::narrow(run, 0.2, 0.35));
+  else if (knn.cols() > kdepth)
+    knn = knn.leftCols(kdepth).eval();  // only what the stages use
 }
 
 /// What MFPS needs besides the points: the canonical rows and the sizes the pipeline chose.
@@ -270,7 +274,8 @@ Normals mfps_stage(const Points& pts, const IndexMatrix& knn, const PcaResult& p
   const FeatureDetection fd = detect_feature_candidates(pca.variation, fo);
   res.candidates = fd.count;
   res.candidate.assign(res.valid.size(), 0);
-  for (Eigen::Index i = 0; i < m; ++i) res.candidate[size_t(in.finite[size_t(i)])] = fd.candidate[size_t(i)];
+  for (Eigen::Index i = 0; i < m; ++i)
+    res.candidate[size_t(in.finite[size_t(i)])] = fd.candidate[size_t(i)];
   BandwidthOptions bo;
   bo.k_patch = res.k_used;
   bo.k_average = in.kdepth;

@@ -5,10 +5,10 @@
 // estimate_normals).
 #pragma once
 
+#include "nhnet/geometry/scales.hpp"
+#include "nhnet/neighbors/neighbors.hpp"
 #include "nhnet/pipeline/describe.hpp"
 #include "nhnet/pipeline/estimate.hpp"
-#include "nhnet/neighbors/neighbors.hpp"
-#include "nhnet/geometry/scales.hpp"
 
 #include <cstdint>
 #include <string>

@@ -30,8 +30,8 @@ ProgressCallback block_progress(const ProgressCallback& cb, Eigen::Index b, Eige
 /// One block of described points through the model; each frame normal back to world
 /// coordinates (R^T n) into res. Returns how many points kept their MFPS normal.
 int64_t refine_block(const DescriptorInput& in, Eigen::Index b, Eigen::Index len,
-                     const NhNetModel& model, const EstimateOptions& options,
-                     const RunContext& run, EstimateResult& res) {
+                     const NhNetModel& model, const EstimateOptions& options, const RunContext& run,
+                     EstimateResult& res) {
   const IndexMatrix knn = in.knn.middleRows(b, len);
   DescriptorMatrix features;
   Rotations rot;
@@ -70,8 +70,8 @@ EstimateResult estimate_nhnet(const Points& points, const EstimateOptions& optio
   EstimateOptions geo = eo;
   geo.run = narrow(eo.run, 0, 0.9);
   EstimateResult geometry = estimate_geometry(points, geo, overrides);
-  DescriptorInput in = descriptor_input(points, std::move(geometry), DescriptorOptions{},
-                                        narrow(eo.run, 0.9, 1));
+  DescriptorInput in =
+      descriptor_input(points, std::move(geometry), DescriptorOptions{}, narrow(eo.run, 0.9, 1));
   EstimateResult res = std::move(in.geometry);
   res.device_used = loaded->device();
   res.descriptor_k = in.k;

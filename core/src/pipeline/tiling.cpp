@@ -3,11 +3,11 @@
 // tiles by recursive splits of the longest axis at the point-count quantile (kd-tree style, so
 // every tile holds about tile_points points whatever the density). Each tile runs the whole
 // pipeline (PCA, MFPS, NH-Net) on its own points plus a halo: every point within
-// TileOptions::halo x r_K of the tile's box, r_K the radius of the largest neighbourhood the stages use.
-// The noise level and the spacing, hence every neighbourhood size, are measured once on the whole
-// cloud (its noise probe, exactly the untiled run's) and handed to each tile, and MFPS's random
-// draws depend only on a patch's own members, so a point whose neighbourhoods (and theirs) lie in
-// its tile and halo gets the untiled normal up to floating-point rounding (each tile is
+// TileOptions::halo x r_K of the tile's box, r_K the radius of the largest neighbourhood the stages
+// use. The noise level and the spacing, hence every neighbourhood size, are measured once on the
+// whole cloud (its noise probe, exactly the untiled run's) and handed to each tile, and MFPS's
+// random draws depend only on a patch's own members, so a point whose neighbourhoods (and theirs)
+// lie in its tile and halo gets the untiled normal up to floating-point rounding (each tile is
 // re-centred). Peak memory: the canonical points and the result (~90 B/point) plus one tile's
 // working set, instead of the whole cloud's (~1.4 kB/point for MFPS).
 #include "pipeline/estimator.hpp"
@@ -148,7 +148,8 @@ Tiles cut_tiles(const Points& pts, int64_t tile_points) {
 double variation_threshold(const Points& pts, const Tiles& tiles, const TileSizes& sizes,
                            double halo_factor, const RunContext& run) {
   const Eigen::Index m = pts.rows();
-  Eigen::VectorXd variation = Eigen::VectorXd::Constant(m, std::numeric_limits<double>::quiet_NaN());
+  Eigen::VectorXd variation =
+      Eigen::VectorXd::Constant(m, std::numeric_limits<double>::quiet_NaN());
   const int k = int(std::min<Eigen::Index>(sizes.choice.k_smooth, m));
   const size_t count = tiles.leaves.size();
   for (size_t t = 0; t < count; ++t) {
@@ -159,7 +160,8 @@ double variation_threshold(const Points& pts, const Tiles& tiles, const TileSize
     Neighbors(tile).knn_all(k, knn, nullptr, narrow(r, 0, 0.7));
     const PcaResult pca = pca_normals(tile, knn, PcaOptions{k}, narrow(r, 0.7, 1));
     for (size_t i = 0; i < rows.size(); ++i)
-      if (tiles.owner[size_t(rows[i])] == int32_t(t)) variation[rows[i]] = pca.variation[Eigen::Index(i)];
+      if (tiles.owner[size_t(rows[i])] == int32_t(t))
+        variation[rows[i]] = pca.variation[Eigen::Index(i)];
   }
   return detect_feature_candidates(variation).absolute_threshold;
 }

@@ -4,8 +4,8 @@
 #include "nhnet/errors.hpp"
 #include "nhnet/progress.hpp"
 
-#include <Eigen/Core>
 #include <omp.h>
+#include <Eigen/Core>
 
 #include <algorithm>
 #include <atomic>

@@ -14,12 +14,12 @@ namespace nhnet {
 Eigen::VectorXd angle_errors_deg(const Normals& estimated, const Normals& ground_truth);
 
 struct AngleStats {
-  double mean = 0;     ///< mean angle error, degrees
-  double rms = 0;      ///< root mean square angle error, degrees
-  double pgp5 = 0;     ///< share of points with error < 5 degrees, in [0, 1]
-  double pgp10 = 0;    ///< share of points with error < 10 degrees, in [0, 1]
-  int64_t count = 0;   ///< points that entered the statistics
-  int64_t invalid = 0; ///< points skipped because an error was NaN (failed / invalid normal)
+  double mean = 0;      ///< mean angle error, degrees
+  double rms = 0;       ///< root mean square angle error, degrees
+  double pgp5 = 0;      ///< share of points with error < 5 degrees, in [0, 1]
+  double pgp10 = 0;     ///< share of points with error < 10 degrees, in [0, 1]
+  int64_t count = 0;    ///< points that entered the statistics
+  int64_t invalid = 0;  ///< points skipped because an error was NaN (failed / invalid normal)
 };
 
 /// Statistics of a vector of per-point errors in degrees; NaN entries are counted as invalid and

@@ -1,7 +1,8 @@
 // Per-point residual bandwidth sigma_j of paper Eq. 1-4 (the paper leaves it open; we follow the
-// authors' code, see docs/design/paper.md#residual-bandwidth-authors-rule): every point takes the plane residual it has
-// in the "best" small patch around it, and its bandwidth is the mean of those residuals over a
-// larger neighbourhood. The kernel width of MFPS is then sigma_j = 2 * bandwidth(j).
+// authors' code, see docs/design/paper.md#residual-bandwidth-authors-rule): every point takes the
+// plane residual it has in the "best" small patch around it, and its bandwidth is the mean of those
+// residuals over a larger neighbourhood. The kernel width of MFPS is then sigma_j = 2 *
+// bandwidth(j).
 #pragma once
 
 #include "nhnet/progress.hpp"
@@ -28,6 +29,7 @@ struct BandwidthOptions {
 /// through the patch centre) -- the authors' rule, written as a gather so it runs in parallel.
 /// `spacing` is the average point spacing (for the lower bound).
 Eigen::VectorXd residual_bandwidth(const Points& points, const IndexMatrix& knn, double spacing,
-                                   const BandwidthOptions& options = {}, const RunContext& run = {});
+                                   const BandwidthOptions& options = {},
+                                   const RunContext& run = {});
 
 }  // namespace nhnet

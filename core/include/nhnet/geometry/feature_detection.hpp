@@ -1,8 +1,8 @@
 // Candidate points near sharp features (paper Sec. 4, first paragraph: local covariance
 // analysis of [32], Sec. 4.2): a point is a candidate when its surface variation
 // lambda_min / sum(lambda) exceeds a threshold chosen per cloud from the histogram of variations
-// (the authors' rule, docs/design/paper.md#candidate-detection-authors-rule): 50-bin histogram, 1-D total-variation
-// smoothing, threshold where the smoothed histogram has flattened after its peak.
+// (the authors' rule, docs/design/paper.md#candidate-detection-authors-rule): 50-bin histogram, 1-D
+// total-variation smoothing, threshold where the smoothed histogram has flattened after its peak.
 #pragma once
 
 #include "nhnet/types.hpp"

@@ -9,11 +9,12 @@
 // random subset of the patch (preemptive scoring), re-score the best few on the whole patch, and
 // refine the winner by a few iteratively reweighted least-squares steps, which climb E itself
 // (each step is the weighted-PCA fixed point of the Gaussian objective). Same E, fewer samples,
-// a maximiser that is not limited to 4-point planes: see docs/design/decisions.md#mfps-plane-search.
-// Selection is the paper's argmax by default; an optional two-face posterior (posterior_beta)
-// trades a little mean error for a lower RMS where two faces are about equally likely, and an
-// optional PCA blend (pca_blend) moves a candidate towards its PCA normal where the selection is
-// likely wrong (not the paper's; see docs/design/decisions.md#mfps-pca-blend).
+// a maximiser that is not limited to 4-point planes: see
+// docs/design/decisions.md#mfps-plane-search. Selection is the paper's argmax by default; an
+// optional two-face posterior (posterior_beta) trades a little mean error for a lower RMS where two
+// faces are about equally likely, and an optional PCA blend (pca_blend) moves a candidate towards
+// its PCA normal where the selection is likely wrong (not the paper's; see
+// docs/design/decisions.md#mfps-pca-blend).
 #pragma once
 
 #include "nhnet/progress.hpp"

@@ -10,7 +10,8 @@
 //              far more than too large;
 //   scales = {1, 2, 3} * k_smooth / 0.7 (the authors' ratio of PCA size to Kmin, 35 / 50),
 //            capped at kMaxScale.
-// The table and how it was measured are in scales.cpp and docs/design/decisions.md#noise-driven-neighbourhood-sizes.
+// The table and how it was measured are in scales.cpp and
+// docs/design/decisions.md#noise-driven-neighbourhood-sizes.
 #pragma once
 
 #include "nhnet/types.hpp"

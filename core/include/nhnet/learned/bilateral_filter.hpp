@@ -1,8 +1,8 @@
 // Multi-scale bilateral normal filtering (paper Sec. 5.1, Eq. 5): every point gets its input
 // (MFPS) normal plus one filtered normal per (sigma_s, sigma_r) pair,
 //   n_i' = normalise( sum_j W_s(|p_i - p_j|) W_r(|n_i - n_j|) n_j ),  W_s(x) = exp(-x^2/(2 s^2)),
-// with s = sigma_s * l_i (l_i = the point's own average spacing) and W_r(x) = exp(-x^2/(2 sigma_r^2)).
-// The input normals are unoriented, so each n_j is first flipped to agree with n_i
+// with s = sigma_s * l_i (l_i = the point's own average spacing) and W_r(x) = exp(-x^2/(2
+// sigma_r^2)). The input normals are unoriented, so each n_j is first flipped to agree with n_i
 // (then |n_i - n_j|^2 = 2 (1 - |n_i . n_j|)). One pass; every pair filters the input normals.
 #pragma once
 

@@ -11,9 +11,9 @@
 //       the direction of negative Z-axis, we reverse it");
 //   e2, e1 (each separately): the third moment sum_f (n_f . e)^3 of those normals is positive;
 //       where it is below 1e-6 per normal (the normals hardly spread along e, e.g. e1 at an edge
-//       or both in a flat region) the third moment of the neighbour offsets sum_j ((p_j - p_i) . e)^3
-//       decides instead, and if that vanishes too (exactly symmetric samples) the solver's sign
-//       stays. The frame may be a reflection (det -1); every consumer only needs R^T R = I.
+//       or both in a flat region) the third moment of the neighbour offsets sum_j ((p_j - p_i) .
+//       e)^3 decides instead, and if that vanishes too (exactly symmetric samples) the solver's
+//       sign stays. The frame may be a reflection (det -1); every consumer only needs R^T R = I.
 #pragma once
 
 #include "nhnet/learned/bilateral_filter.hpp"

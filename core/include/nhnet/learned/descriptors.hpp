@@ -43,8 +43,7 @@ int descriptor_size(const DescriptorOptions& options = {});
 /// a cloud can be described block by block. Writes M x D features and the M rotations.
 void compute_descriptors(const Points& points, const Normals& normals, const IndexMatrix& knn,
                          int k, const DescriptorOptions& options, DescriptorMatrix& features,
-                         Rotations& rotations, const RunContext& run = {},
-                         Eigen::Index first = 0);
+                         Rotations& rotations, const RunContext& run = {}, Eigen::Index first = 0);
 
 /// The descriptor neighbourhood size for a cloud of m points whose smallest MFPS scale is
 /// `kmin`: ceil(neighborhood_factor x kmin), at least filter.spacing_k + 1, at most m.

@@ -54,8 +54,8 @@ class NhNetModel {
   /// Unit normals in the canonical frame for every row of `features` (N x D), `batch` rows at a
   /// time. Rows with non-finite features give NaN.
   Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor> infer(const DescriptorMatrix& features,
-                                                                  int batch = 4096,
-                                                                  const RunContext& run = {}) const;
+                                                                 int batch = 4096,
+                                                                 const RunContext& run = {}) const;
 
  private:
   struct Impl;

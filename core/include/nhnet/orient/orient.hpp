@@ -58,10 +58,11 @@ struct OrientOptions {
   /// outward normals). false = the seed rule alone (highest point's normal to +z, as CGAL).
   bool outward_vote = true;
   /// Mst: decide each point's side by a voxel flood fill of the space around the cloud where
-  /// the sampled surface is closed (core/src/orient/inside_outside.hpp), and grow the tree from every
-  /// decided point at once; open clouds (the fill leaks into the interior) are left to the tree
-  /// alone. Measured on the benchmark's closed models (docs/design/decisions.md#inside-or-outside-by-a-voxel-flood-fill): thin-bladed rotor
-  /// 71 % -> 98 %, couplingdown at 0.4-0.5 % noise 92 % -> 99 %. false = the tree alone.
+  /// the sampled surface is closed (core/src/orient/inside_outside.hpp), and grow the tree from
+  /// every decided point at once; open clouds (the fill leaks into the interior) are left to the
+  /// tree alone. Measured on the benchmark's closed models
+  /// (docs/design/decisions.md#inside-or-outside-by-a-voxel-flood-fill): thin-bladed rotor 71 % ->
+  /// 98 %, couplingdown at 0.4-0.5 % noise 92 % -> 99 %. false = the tree alone.
   bool inside_outside = true;
   /// Mirror only pairs whose offset along both normals exceeds reflect_noise x the noise (the
   /// median over the points of the median |(p_j - p_i) . n_i| over their k nearest); below that

@@ -16,8 +16,8 @@
 namespace nhnet {
 
 enum class Method {
-  Pca,   ///< plain PCA over the k nearest neighbours
-  Mfps,  ///< PCA for smooth points + multi-scale fitting patch selection near features
+  Pca,    ///< plain PCA over the k nearest neighbours
+  Mfps,   ///< PCA for smooth points + multi-scale fitting patch selection near features
   NhNet,  ///< MFPS refined by the trained NH-Net (paper Sec. 5; needs libtorch, nhnet_model.hpp)
 };
 

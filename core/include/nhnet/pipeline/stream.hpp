@@ -7,8 +7,8 @@
 // sampling (tested).
 #pragma once
 
-#include "nhnet/pipeline/estimate.hpp"
 #include "nhnet/orient/orient.hpp"
+#include "nhnet/pipeline/estimate.hpp"
 
 #include <cstdint>
 #include <string>
@@ -61,9 +61,9 @@ struct StreamResult {
 /// Reads the XYZ text cloud `input` (x y z [nx ny nz] ... per line, as read_cloud), estimates
 /// normals tile by tile and writes `output` (.ply, or .xyz / .xyzn / .txt: x y z nx ny nz) in
 /// the input's point order, through a temporary file renamed at the end; failed points get NaN
-/// normals. `output` must not be `input`. Throws InputError (unreadable / malformed input, naming the file and line),
-/// InvalidOptions (a PLY / PCD input, Mst orientation, tiles.points <= 0, an unsupported output
-/// extension), OutputError, Cancelled.
+/// normals. `output` must not be `input`. Throws InputError (unreadable / malformed input, naming
+/// the file and line), InvalidOptions (a PLY / PCD input, Mst orientation, tiles.points <= 0, an
+/// unsupported output extension), OutputError, Cancelled.
 StreamResult estimate_stream(const std::string& input, const std::string& output,
                              const StreamOptions& options);
 
