@@ -31,11 +31,21 @@ def room_of_include(name):
     return parts[0] if len(parts) > 1 else None
 
 
+# The umbrella header for users includes every room on purpose; nothing in the core includes it.
+UMBRELLA = REPO / "core" / "include" / "nhnet" / "nhnet.hpp"
+
+
 def core_files():
     for sub in ("src", "include/nhnet"):
         for p in sorted((REPO / "core" / sub).rglob("*")):
-            if p.suffix in (".cpp", ".hpp", ".in"):
+            if p.suffix in (".cpp", ".hpp", ".in") and p != UMBRELLA:
                 yield p
+
+
+def test_nothing_in_the_core_includes_the_umbrella():
+    users = [str(path.relative_to(REPO)) for path in core_files()
+             if "nhnet/nhnet.hpp" in INCLUDE.findall(path.read_text())]
+    assert not users, f"core files including nhnet/nhnet.hpp: {users}"
 
 
 def arrows():
