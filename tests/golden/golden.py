@@ -12,6 +12,7 @@ Clouds: the first 4000 points of the bundled noisy fandisk sample (its points ar
 so this is a random subset), and the first 3000 of its clean copy.
 """
 
+import json
 import os
 import subprocess
 import tempfile
@@ -74,8 +75,6 @@ def _cli_cases(work, out):
     _cli("estimate", noisy, work / "for_eval.xyzn", "--method", "mfps", "--orient", "none")
     res = subprocess.run([str(CLI), "eval", work / "for_eval.xyzn", gt, "--json"], check=True,
                          capture_output=True, text=True)
-    import json
-
     ev = json.loads(res.stdout)
     out["cli_eval"] = np.array([float(ev[k]) for k in sorted(ev) if isinstance(ev[k], (int, float))])
 

@@ -21,10 +21,16 @@ int descriptor_k(int kmin, const DescriptorOptions& options, Eigen::Index m) {
 
 namespace detail {
 
+EstimateOptions geometry_options(const EstimateOptions& options, bool pca_blend) {
+  EstimateOptions eo = options;
+  eo.method = Method::Mfps;
+  eo.mfps.pca_blend = pca_blend;
+  eo.run = narrow(options.run, 0, 0.9);
+  return eo;
+}
+
 DescriptorInput descriptor_input(const Points& points, EstimateResult geometry,
                                  const DescriptorOptions& options, const RunContext& run) {
-  if (!(options.neighborhood_factor > 0))
-    throw InvalidOptions("descriptor neighborhood factor must be > 0");
   DescriptorInput in;
   in.geometry = std::move(geometry);
   for (Eigen::Index i = 0; i < points.rows(); ++i)
@@ -53,10 +59,7 @@ DescriptorInput descriptor_input(const Points& points, EstimateResult geometry,
 DescriptorInput prepare_descriptors(const Points& points, const DescribeOptions& options) {
   if (!(options.descriptor.neighborhood_factor > 0))
     throw InvalidOptions("descriptor neighborhood factor must be > 0");
-  EstimateOptions eo = options.estimate;
-  eo.method = Method::Mfps;
-  eo.mfps.pca_blend = options.mfps_pca_blend;
-  eo.run = detail::narrow(options.estimate.run, 0, 0.9);
+  const EstimateOptions eo = detail::geometry_options(options.estimate, options.mfps_pca_blend);
   return detail::descriptor_input(points, estimate_normals(points, eo), options.descriptor,
                                   detail::narrow(options.estimate.run, 0.9, 1));
 }

@@ -36,8 +36,8 @@ EstimateResult empty_result(Eigen::Index n);
 EstimateResult estimate_cloud(const Points& points, const EstimateOptions& options,
                               const TileOverrides& overrides);
 
-/// The geometry stage (paper Sec. 4): PCA everywhere, MFPS near sharp features for Method::Mfps
-/// (any other method gets PCA normals only when it is Pca; NhNet's geometry is run as Mfps).
+/// The geometry stage (paper Sec. 4): PCA everywhere, and MFPS near sharp features when
+/// options.method is Mfps (NH-Net's callers pass geometry_options(), which sets it).
 EstimateResult estimate_geometry(const Points& points, const EstimateOptions& options,
                                  const TileOverrides& overrides);
 
@@ -47,8 +47,14 @@ EstimateResult estimate_nhnet(const Points& points, const EstimateOptions& optio
 
 /// The descriptor input of a cloud whose geometry stage ran (describe.cpp): the rows with a
 /// normal, their points, normals and k-NN table at the descriptor's size.
+/// `options` are checked by the caller (neighborhood_factor > 0).
 DescriptorInput descriptor_input(const Points& points, EstimateResult geometry,
                                  const DescriptorOptions& options, const RunContext& run);
+
+/// The options of the geometry stage under the descriptors (training and NH-Net alike): MFPS,
+/// the PCA blend as given, the first 90 % of `options.run`'s progress (the neighbour table of
+/// descriptor_input takes the rest).
+EstimateOptions geometry_options(const EstimateOptions& options, bool pca_blend);
 
 /// The finite, deduplicated points of a cloud in canonical (lexicographic) order, normalised.
 struct Canonical {

@@ -57,19 +57,16 @@ namespace detail {
 
 EstimateResult estimate_nhnet(const Points& points, const EstimateOptions& options,
                               const TileOverrides& overrides) {
-  if (options.model.batch < 1) throw InvalidOptions("nhnet batch must be >= 1");
-  // Load first: a missing or mismatched model fails before the long geometry stage.
+  // Options are checked (check_options: batch >= 1). Load first: a missing or mismatched model
+  // fails before the long geometry stage.
   const std::shared_ptr<const NhNetModel> loaded = model_for(options.model, options.run.threads);
   const ProgressCallback cb = options.run.progress;
-  // The geometry stage as the model was trained on it (describe.hpp): MFPS without the blend.
+  // The geometry stage and the descriptor neighbourhoods take the first 70 % of the progress.
   EstimateOptions eo = options;
-  eo.method = Method::Mfps;
-  eo.mfps.pca_blend = DescribeOptions{}.mfps_pca_blend;
-  eo.run.progress = {};
   if (cb) eo.run.progress = [cb](double f, const std::string& s) { return cb(0.7 * f, s); };
-  EstimateOptions geo = eo;
-  geo.run = narrow(eo.run, 0, 0.9);
-  EstimateResult geometry = estimate_geometry(points, geo, overrides);
+  // The geometry stage as the model was trained on it (describe.hpp): MFPS without the blend.
+  EstimateResult geometry =
+      estimate_geometry(points, geometry_options(eo, DescribeOptions{}.mfps_pca_blend), overrides);
   DescriptorInput in =
       descriptor_input(points, std::move(geometry), DescriptorOptions{}, narrow(eo.run, 0.9, 1));
   EstimateResult res = std::move(in.geometry);
