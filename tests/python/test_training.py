@@ -89,11 +89,12 @@ def test_train_with_weight_average_keeps_the_better_copy(tmp_path):
                       out_dir=str(tmp_path / "run"), max_minutes=2, ema_decay=0.9)
     info = train(cfg, data=samples(2), log=lambda s: None)
     hist = json.loads((tmp_path / "run" / "history.json").read_text())["history"]
-    assert all(np.isfinite(h["val_deg_average"]) for h in hist)
+    assert all(np.isfinite(h["val_rms_average"]) for h in hist)
     best = hist[info["best_epoch"]]
-    kept = min(best["val_deg"], best["val_deg_average"])
-    assert info["val_deg"] == pytest.approx(kept)
-    assert info["weights"] == ("average" if best["val_deg_average"] < best["val_deg"] else "raw")
+    # Selection by validation RMS (the default select_by).
+    kept = min(best["val_rms"], best["val_rms_average"])
+    assert info["val_rms"] == pytest.approx(kept)
+    assert info["weights"] == ("average" if best["val_rms_average"] < best["val_rms"] else "raw")
     # The exported model is the kept copy: its outputs equal the checkpoint's weights'.
     ck = torch.load(str(tmp_path / "run" / "best.ckpt"))
     assert ck["info"]["weights"] == info["weights"]
@@ -103,6 +104,57 @@ def test_train_with_weight_average_keeps_the_better_copy(tmp_path):
     x = torch.from_numpy(samples(3)["features"][:64])
     with torch.no_grad():
         assert torch.allclose(torch.jit.load(str(tmp_path / "run" / "model.pt"))(x), net(x), atol=1e-5)
+
+
+def test_loss_terms_weigh_the_tail():
+    """sin^2 and the RMS term: zero at the target, sign-free (unoriented), and they add more to
+    the loss of one 60-degree error than Eq. 8 alone does relative to small errors."""
+    from nhnet_training.model import loss_fn
+
+    t = torch.tensor([[0.0, 0.0, 1.0]])
+
+    def tilt(deg):
+        r = np.radians(deg)
+        return torch.tensor([[np.sin(r), 0.0, np.cos(r)]], dtype=torch.float32)
+
+    assert float(loss_fn(t, t, 1.0, 1.0)) == pytest.approx(0.0, abs=1e-5)
+    # Unoriented: a flipped output costs nothing in the added terms.
+    flipped = loss_fn(-t, t, 1.0, 1.0) - loss_fn(-t, t)
+    assert float(flipped) == pytest.approx(0.0, abs=1e-5)
+    # Eq. 8 alone: 4 sin^2(a/2); sin^2 term: sin^2(a); RMS term: a (radians) for one sample.
+    for deg in (5.0, 30.0, 60.0):
+        a = np.radians(deg)
+        assert float(loss_fn(tilt(deg), t)) == pytest.approx(4 * np.sin(a / 2) ** 2, rel=1e-4)
+        assert float(loss_fn(tilt(deg), t, 1.0, 0.0)) == pytest.approx(
+            4 * np.sin(a / 2) ** 2 + np.sin(a) ** 2, rel=1e-4)
+        assert float(loss_fn(tilt(deg), t, 0.0, 1.0)) == pytest.approx(4 * np.sin(a / 2) ** 2 + a, rel=1e-4)
+    # Pull on each sample through the network's normalisation (gradient on the raw output,
+    # tangential), 60 vs 5 deg: RMS term = ratio of the angles, 12; Eq. 8 = sin(60)/sin(5) = 9.9;
+    # sin^2 = sin(120)/sin(10) = 5.0 (its pull peaks at 45 deg). The RMS term leans on the tail.
+    def pull_ratio(w_sin2, w_rms, eq8=False):
+        raw = torch.cat([tilt(5.0), tilt(60.0)]).requires_grad_(True)
+        out, tt = torch.nn.functional.normalize(raw, dim=1), torch.cat([t, t])
+        (loss_fn(out, tt, w_sin2, w_rms) - (0 if eq8 else loss_fn(out, tt))).backward()
+        g = raw.grad.norm(dim=1)
+        return float(g[1] / g[0])
+
+    def ratio(a, b):
+        return np.sin(np.radians(a)) / np.sin(np.radians(b))
+
+    assert pull_ratio(0.0, 1.0) == pytest.approx(12.0, rel=1e-3)
+    assert pull_ratio(0.0, 0.0, eq8=True) == pytest.approx(ratio(60, 5), rel=1e-3)
+    assert pull_ratio(1.0, 0.0) == pytest.approx(ratio(120, 10), rel=1e-3)
+
+
+def test_angle_stats():
+    from nhnet_training.metrics import angle_stats, grouped_stats
+
+    s = angle_stats([3.0, 4.0, 8.0, 40.0])
+    assert s["rms"] == pytest.approx(np.sqrt((9 + 16 + 64 + 1600) / 4))
+    assert s["mean"] == pytest.approx(13.75)
+    assert (s["pgp5"], s["pgp10"], s["over30"], s["count"]) == (50.0, 75.0, 25.0, 4)
+    g = grouped_stats(np.array([1.0, 50.0, 2.0]), np.array(["a", "b", "a"]))
+    assert g["a"]["rms"] == pytest.approx(np.sqrt(2.5)) and g["b"]["over30"] == 100.0
 
 
 def test_export_zeroes_tiny_weights(tmp_path):
@@ -156,3 +208,20 @@ def test_select_clouds_levels_per_model(tmp_path):
     three = pairs(TrainConfig(levels_per_model=3, **base))
     assert len(three) == 3 * len(models) and len(set(three)) == len(three)
     assert pairs(TrainConfig(levels_per_model=3, max_clouds=7, **base)) == three[:7]
+
+
+def test_evaluate_report_per_category_and_noise():
+    from nhnet_training.evaluate import report
+    from nhnet_training.metrics import angle_stats
+
+    rows = [{"category": "A", "noise": 0.1, "variant": "uniform",
+             "mfps": angle_stats([2.0, 40.0]), "m": angle_stats([1.0, 3.0])},
+            {"category": "B", "noise": 0.1, "variant": "gradient",
+             "mfps": angle_stats([4.0]), "m": angle_stats([5.0])}]
+    text = report(rows, ["mfps", "m"])
+    lines = text.splitlines()
+    # Per category: A's mfps RMS sqrt((4 + 1600) / 2) = 28.32, share over 30 = 50 %.
+    assert "| A | 1 | 28.32 | 21.00 | 50.0 | 50.0 | 50.00 | 2.24 | 2.00 | 100.0 | 100.0 | 0.00 |" in lines
+    # all = mean of the clouds' figures: m RMS (2.236 + 5) / 2.
+    assert any(line.startswith("| all | 2 |") and "| 3.62 |" in line for line in lines)
+    assert "| 0.1% gradient | 1 |" in text and "| 0.1% | 1 |" in text

@@ -41,7 +41,9 @@ class TrainConfig:
     # optimisation (authors: SGD lr 1e-4 momentum 0.9 wd 0.02, batch 512, patience 30)
     optimizer: str = "adam"
     lr: float = 1e-3
-    lr_schedule: str = "cosine"               # "cosine": decays to 0 over max_minutes; "constant"
+    lr_schedule: str = "cosine"               # "cosine": decays to 0 over max_minutes (wall clock);
+                                               # "cosine-steps": to 0 over `epochs` epochs by step
+                                               # count (exactly resumable); "constant"
     weight_decay: float = 1e-5
     batch: int = 512
     epochs: int = 20
@@ -52,6 +54,12 @@ class TrainConfig:
                                                # validated beside the raw weights every epoch and
                                                # kept when it is better
     seed: int = 1
+    # loss (model.loss_fn): Eq. 8 + these weights x the RMS-aimed terms (0, 0 = Eq. 8 alone, v6)
+    loss_sin2: float = 1.0                     # x mean sin^2(angle)
+    loss_rms: float = 0.25                     # x batch RMS of the angle (radians)
+    select_by: str = "rms"                     # model selection on validation "rms" or "mean"
+    checkpoint_minutes: float = 10.0           # resumable checkpoint (last.ckpt) at least this
+                                               # often, and after every epoch
     # output
     out_dir: str = "runs/nhnet"
 

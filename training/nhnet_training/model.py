@@ -59,7 +59,30 @@ def unoriented_angle_deg(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
     return torch.rad2deg(torch.acos(cos))
 
 
-def loss_fn(out: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
+def loss_fn(out: torch.Tensor, target: torch.Tensor, sin2_weight: float = 0.0,
+            rms_weight: float = 0.0) -> torch.Tensor:
     """Eq. 8 without the L2 term (that is the optimiser's weight decay): ||N* - N_gt||^2, with the
-    target oriented to the self normal's side (done in the dataset)."""
-    return ((out - target) ** 2).sum(dim=1).mean()
+    target oriented to the self normal's side (done in the dataset), plus two terms (issue 23).
+
+    Eq. 8 is already close to the squared angle (4 sin^2(a/2) = a^2 (1 - a^2/12 + ...), 19 %
+    below a^2 at 90 degrees), i.e. to RMS^2; the added terms change how the errors are weighed:
+
+    - `sin2_weight` x mean sin^2(angle) = |N* x N_gt|^2: sign-free (unoriented), where Eq. 8
+      punishes an output past 90 degrees from the MFPS side that is right up to its sign; its
+      pull on a sample peaks at 45 degrees (gradient sin(2 angle)): the middle of the range;
+    - `rms_weight` x sqrt(mean angle^2) (radians, unoriented, over the batch): the batch's RMS
+      itself. Its pull on one sample is angle / (n RMS_batch): proportional to the sample's
+      error and, unlike a mean of squares, not fading as the batch's errors shrink, so late in
+      training the few large errors of a batch keep most of the gradient.
+
+    The angle is atan2(|a x b|, |a . b|) with eps under the root: finite gradient at 0."""
+    loss = ((out - target) ** 2).sum(dim=1).mean()
+    if sin2_weight > 0.0 or rms_weight > 0.0:
+        cross = torch.cross(out, target, dim=1)
+        sin2 = (cross * cross).sum(dim=1)
+        if sin2_weight > 0.0:
+            loss = loss + sin2_weight * sin2.mean()
+        if rms_weight > 0.0:
+            ang = torch.atan2(torch.sqrt(sin2 + 1e-12), (out * target).sum(dim=1).abs())
+            loss = loss + rms_weight * torch.sqrt((ang * ang).mean() + 1e-12)
+    return loss
