@@ -225,3 +225,99 @@ def test_evaluate_report_per_category_and_noise():
     # all = mean of the clouds' figures: m RMS (2.236 + 5) / 2.
     assert any(line.startswith("| all | 2 |") and "| 3.62 |" in line for line in lines)
     assert "| 0.1% gradient | 1 |" in text and "| 0.1% | 1 |" in text
+
+
+def test_fit_head_recovers_a_tilted_plane():
+    """NhNetFit's weighted plane fit: on maps that are an exact plane z = 0.2 u + 0.1 v + 0.05
+    (cells) around n = (0, 0, 1), every fit (any positive weights) is the plane's normal
+    (-0.2, -0.1, 1) normalised. Tolerance 0.2 deg: the 1e-3 ridge on the normal equations and
+    the bins at height exactly 0 (read as empty) move it by less than 0.05 deg."""
+    from nhnet_training.model import NhNetFit
+
+    torch.manual_seed(0)
+    m = NhNetFit(TrainConfig(arch="fit", fit_channels=4)).eval()
+    b = 3
+    normals = torch.tensor([0.0, 0.0, 1.0]).repeat(b, 9, 1)
+    g = torch.arange(7.0) - 3
+    u, v = torch.meshgrid(g, g, indexing="ij")
+    maps = (0.2 * u + 0.1 * v + 0.05).repeat(b, 9, 1, 1)
+    with torch.no_grad():
+        fits = m.fits(normals, maps)
+    assert fits.shape == (b, 9 * 2, 3)
+    want = torch.nn.functional.normalize(torch.tensor([[-0.2, -0.1, 1.0]]), dim=1)
+    err = unoriented(fits.reshape(-1, 3), want.expand(b * 18, 3))
+    assert float(err.max()) < 0.2
+
+
+def unoriented(a, b):
+    from nhnet_training.model import unoriented_angle_deg
+
+    return unoriented_angle_deg(a, b)
+
+
+def test_fit_model_trains_exports_and_starts_at_mfps(tmp_path):
+    """arch "fit": TorchScript export with model_format 2 / architecture "fit" metadata (the
+    descriptor keys the C++ loader checks unchanged); untrained, its output is the self (MFPS)
+    normal up to the softmax's start weight (0.9975 on it): within 1 deg."""
+    from nhnet_training.model import build_model
+
+    cfg = TrainConfig(arch="fit", conv1=4, conv2=4, hidden1=8, hidden2=8, fit_channels=4, epochs=1,
+                      batch=256, out_dir=str(tmp_path / "run"), max_minutes=2)
+    x = torch.from_numpy(samples(3)["features"][:256])
+    torch.manual_seed(0)
+    fresh = build_model(cfg).eval()
+    with torch.no_grad():
+        start = fresh(x)
+    assert float(unoriented(start, x[:, :3]).max()) < 1.0
+    info = train(cfg, data=samples(2), log=lambda s: None)
+    assert np.isfinite(info["val_rms"])
+    meta = read_metadata(str(tmp_path / "run" / "model.pt"))
+    assert (meta["model_format"], meta["architecture"]) == (2, "fit")
+    assert meta["descriptor_version"] == DESCRIPTOR_VERSION and meta["patch_size"] == 7
+    m = torch.jit.load(str(tmp_path / "run" / "model.pt"))
+    ck = torch.load(str(tmp_path / "run" / "best.ckpt"))
+    net = build_model(cfg)
+    net.load_state_dict(ck["model"])
+    net.eval()
+    with torch.no_grad():
+        assert torch.allclose(m(x), net(x), atol=1e-5)
+        assert torch.allclose(m(x).norm(dim=1), torch.ones(len(x)), atol=1e-5)
+
+
+def test_shipped_v6_model_still_loads():
+    """The shipped model (format 1: no model_format key, the paper's architecture) loads and runs
+    next to the new format."""
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[2] / "models" / "nhnet.pt"
+    meta = read_metadata(str(path))
+    assert "model_format" not in meta and meta["descriptor_version"] == DESCRIPTOR_VERSION
+    m = torch.jit.load(str(path)).eval()
+    x = torch.from_numpy(samples(3)["features"][:64])
+    with torch.no_grad():
+        out = m(x)
+    assert torch.allclose(out.norm(dim=1), torch.ones(64), atol=1e-5)
+
+
+def test_fit_model_warm_starts_from_the_shipped_v6():
+    """--init-from models/nhnet.pt: the "fit" network takes v6's branches and gather under the
+    same names, so before training it gives v6's output up to the candidate softmax's start
+    weight on the self normal (0.9975; the fits share the rest): within 1 deg of v6 here."""
+    from pathlib import Path
+
+    from nhnet_training.model import build_model
+    from nhnet_training.train import warm_start
+
+    path = str(Path(__file__).resolve().parents[2] / "models" / "nhnet.pt")
+    v6 = torch.jit.load(path).eval()
+    cfg = TrainConfig.from_dict(read_metadata(path)["config"])
+    cfg.arch = "fit"
+    net = build_model(cfg)
+    n = warm_start(net, path)
+    assert n == len(v6.state_dict())  # every v6 tensor found its place
+    net.eval()
+    x = torch.from_numpy(samples(3)["features"][:256])
+    with torch.no_grad():
+        assert float(unoriented(net(x), v6(x)).max()) < 1.0
+    with pytest.raises(ValueError, match="no parameter matches"):
+        warm_start(torch.nn.Linear(2, 2), path)

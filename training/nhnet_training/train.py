@@ -32,7 +32,7 @@ import torch
 from .config import TrainConfig
 from .export import export
 from .metrics import angle_stats, format_stats, grouped_stats
-from .model import NhNet, loss_fn, unoriented_angle_deg
+from .model import NhNet, build_model, loss_fn, unoriented_angle_deg
 
 # Fields a resumed run may change (how long it goes on, how often it saves, threads); every other
 # field comes from the checkpoint so the continued run trains the same thing.
@@ -133,6 +133,21 @@ def save_atomic(obj: dict, path: Path) -> None:
     os.replace(tmp, path)
 
 
+def warm_start(model: torch.nn.Module, path: str) -> int:
+    """Loads the tensors of `path` (an exported model.pt or a checkpoint) whose name and shape
+    match the model's; returns how many. The rest keeps its initialisation."""
+    if path.endswith(".ckpt"):
+        src = torch.load(path, map_location="cpu")["model"]
+    else:
+        src = torch.jit.load(path, map_location="cpu").state_dict()
+    own = model.state_dict()
+    take = {k: v for k, v in src.items() if k in own and own[k].shape == v.shape}
+    if not take:
+        raise ValueError(f"{path}: no parameter matches the model (architecture or sizes differ)")
+    model.load_state_dict(take, strict=False)
+    return len(take)
+
+
 class Run:
     """Everything a training run carries from step to step (what last.ckpt holds)."""
 
@@ -149,7 +164,8 @@ class Run:
         self.x, self.y, self.xv, self.yv = x, y, x[val], y[val]
         self.groups = sample_groups(data, n)[val]
         self.base = angle_stats(unoriented_angle_deg(self.xv[:, 0:3], self.yv).numpy())
-        self.model = NhNet(cfg)
+        self.model = build_model(cfg)
+        self.warm = warm_start(self.model, cfg.init_from) if cfg.init_from else 0
         if cfg.optimizer == "sgd":
             self.opt = torch.optim.SGD(self.model.parameters(), lr=cfg.lr, momentum=0.9,
                                        weight_decay=cfg.weight_decay)
@@ -279,6 +295,8 @@ def train(cfg: TrainConfig, data: dict | None = None, log=print, resume: bool = 
         log(f"[train] resumed {last}: epoch {run.s['epoch']}, step {run.s['step']}, "
             f"{run.s['minutes']:.1f} min, best {cfg.select_by} {run.s['best']:.3f}")
     params = sum(p.numel() for p in run.model.parameters())
+    if cfg.init_from:
+        log(f"[train] warm start: {run.warm} tensors from {cfg.init_from}")
     log(f"[train] {len(run.tr)} train / {len(run.yv)} val samples, {params} parameters; "
         f"MFPS input on val: {format_stats(run.base)}")
     interrupted = {"flag": False}
