@@ -135,3 +135,14 @@ def test_sigterm_saves_and_resume_goes_on(tmp_path):
     hist = json.loads((out / "history.json").read_text())
     assert hist["info"]["epochs_run"] == ck["run"]["epoch"] + 1
     assert hist["info"]["steps"] == (ck["run"]["epoch"] + 1) * 266  # 17000 train / 64 -> 266 steps
+
+
+def test_resume_without_checkpoint_starts_from_the_beginning(tmp_path):
+    """A run stopped before its first checkpoint (while building the data) is restarted by the
+    same command with --resume: it trains from scratch, same result as without --resume."""
+    data = synthetic()
+    logs = []
+    a = train(tiny(tmp_path / "a", epochs=1), data=data, log=logs.append, resume=True)
+    assert any("no " in s and "starting from the beginning" in s for s in logs)
+    b = train(tiny(tmp_path / "b", epochs=1), data=data, log=lambda s: None)
+    assert a["val_rms"] == b["val_rms"] and a["steps"] == b["steps"]

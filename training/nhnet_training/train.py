@@ -268,7 +268,10 @@ def end_epoch(run: Run, log) -> bool:
 
 def resume_config(cfg: TrainConfig, argv) -> TrainConfig:
     """The checkpoint's config, with the RESUME_OVERRIDABLE fields given on the command line."""
-    ck = torch.load(Path(cfg.out_dir) / "last.ckpt", map_location="cpu")
+    path = Path(cfg.out_dir) / "last.ckpt"
+    if not path.exists():  # interrupted before the first checkpoint (e.g. building the data)
+        return cfg
+    ck = torch.load(path, map_location="cpu")
     saved = TrainConfig.from_dict(json.loads(ck["config"]))
     given = vars(_arg_parser(True).parse_args(argv))
     changed = {k: v for k, v in given.items() if k in RESUME_OVERRIDABLE}
@@ -290,6 +293,9 @@ def train(cfg: TrainConfig, data: dict | None = None, log=print, resume: bool = 
         data = build_dataset(cfg, Path(cfg.cache) if cfg.cache else out_dir.parent / "dataset", log)
     run = Run(cfg, data)
     last = out_dir / "last.ckpt"
+    if resume and not last.exists():
+        log(f"[train] --resume: no {last} yet, starting from the beginning")
+        resume = False
     if resume:
         run.load_state_dict(torch.load(last, map_location="cpu"))
         log(f"[train] resumed {last}: epoch {run.s['epoch']}, step {run.s['step']}, "
