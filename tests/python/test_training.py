@@ -321,3 +321,17 @@ def test_fit_model_warm_starts_from_the_shipped_v6():
         assert float(unoriented(net(x), v6(x)).max()) < 1.0
     with pytest.raises(ValueError, match="no parameter matches"):
         warm_start(torch.nn.Linear(2, 2), path)
+
+
+def test_train_from_v6_logs_the_start(tmp_path):
+    """--init-from: the warm start's own validation is logged and kept (what training must beat)."""
+    from pathlib import Path
+
+    path = str(Path(__file__).resolve().parents[2] / "models" / "nhnet.pt")
+    cfg = TrainConfig(arch="fit", init_from=path, epochs=1, batch=256, out_dir=str(tmp_path / "r"),
+                      max_minutes=2)
+    logs = []
+    info = train(cfg, data=samples(2), log=logs.append)
+    assert any(s.startswith("[train] warm start: 29 tensors") for s in logs)
+    assert any(s.startswith("[train] before training: val RMS") for s in logs)
+    assert 0 < info["val_before_training"]["rms"] < 90

@@ -303,6 +303,9 @@ def train(cfg: TrainConfig, data: dict | None = None, log=print, resume: bool = 
     params = sum(p.numel() for p in run.model.parameters())
     if cfg.init_from:
         log(f"[train] warm start: {run.warm} tensors from {cfg.init_from}")
+        if not resume:  # the figure training has to beat (the warm start's own error)
+            run.s["start_val"] = angle_stats(evaluate(run.model, run.xv, run.yv))
+            log(f"[train] before training: val {format_stats(run.s['start_val'])}")
     log(f"[train] {len(run.tr)} train / {len(run.yv)} val samples, {params} parameters; "
         f"MFPS input on val: {format_stats(run.base)}")
     interrupted = {"flag": False}
@@ -350,6 +353,7 @@ def finish(run: Run, data: dict, params: int, log) -> dict:
             "val_mfps_deg": run.base["mean"], "train_samples": int(len(run.tr)),
             "val_samples": int(len(run.yv)), "parameters": params, "train_minutes": s["minutes"],
             "steps": s["step"], "epochs_run": s["epoch"], "stopped": s["stopped"],
+            "val_before_training": s.get("start_val"),
             "clouds": [str(c) for c in data.get("names", [])]}
     export(run.model, cfg, str(out_dir / "model.pt"), info)
     (out_dir / "history.json").write_text(json.dumps({"info": info, "history": s["history"]}, indent=1))
