@@ -335,3 +335,17 @@ def test_train_from_v6_logs_the_start(tmp_path):
     assert any(s.startswith("[train] warm start: 29 tensors") for s in logs)
     assert any(s.startswith("[train] before training: val RMS") for s in logs)
     assert 0 < info["val_before_training"]["rms"] < 90
+
+
+def test_evaluate_picks_distinct_clouds(tmp_path):
+    """--per-category larger than a category: every cloud once (it once repeated clouds)."""
+    from nhnet_training.evaluate import pick_clouds
+
+    clouds = [{"name": f"c{i}", "category": "A"} for i in range(3)]
+    clouds += [{"name": f"d{i}", "category": "B"} for i in range(10)]
+    (tmp_path / "benchmark").mkdir()
+    (tmp_path / "benchmark" / "index.json").write_text(json.dumps({"clouds": clouds}))
+    many = [c["name"] for c in pick_clouds(str(tmp_path), 100, None, None)]
+    assert sorted(many) == sorted(c["name"] for c in clouds)
+    two = [c["name"] for c in pick_clouds(str(tmp_path), 2, None, None)]
+    assert len(two) == len(set(two)) == 4

@@ -35,16 +35,26 @@ def pick_clouds(data_dir: str, per_category: int, categories=None, names=None):
         if categories and cat not in categories:
             continue
         cl = sorted(by_cat[cat], key=lambda c: c["name"])
-        step = len(cl) / per_category
-        out += [cl[int(i * step + step / 2)] for i in range(min(per_category, len(cl)))]
+        take = min(per_category, len(cl))  # (per_category > len(cl) once repeated clouds)
+        step = len(cl) / take
+        out += [cl[int(i * step + step / 2)] for i in range(take)]
     return out
 
 
 def cloud_data(data_dir: str, c: dict, points: int, cache: Path, threads: int):
     f = cache / f"{c['name']}.npz"
-    if f.exists():
-        with np.load(f) as z:
-            return {k: z[k] for k in z.files}
+    if not f.exists():  # stored with at least the default 20 000 rows, subsets taken below
+        _compute_cloud(data_dir, c, max(points, 20000), f, threads)
+    with np.load(f) as z:
+        d = {k: z[k] for k in z.files}
+    if len(d["rows"]) > points:  # a fixed subset of the stored rows
+        keep = np.sort(np.random.default_rng(12345).choice(len(d["rows"]), points, replace=False))
+        for k in ("rows", "features", "rotations", "mfps", "gt", "valid"):
+            d[k] = d[k][keep]
+    return d
+
+
+def _compute_cloud(data_dir: str, c: dict, points: int, f: Path, threads: int) -> None:
     import nhnet
 
     base = Path(data_dir) / "benchmark"
@@ -58,10 +68,9 @@ def cloud_data(data_dir: str, c: dict, points: int, cache: Path, threads: int):
     out = {"rows": rows, "features": d["features"][rows], "rotations": d["rotations"][rows],
            "mfps": d["normals"][rows], "gt": gt[rows], "valid": d["valid"][rows],
            "seconds": np.array(secs), "n": np.array(len(xyz))}
-    cache.mkdir(parents=True, exist_ok=True)
+    f.parent.mkdir(parents=True, exist_ok=True)
     np.savez(f.with_suffix(".tmp.npz"), **out)
     f.with_suffix(".tmp.npz").replace(f)
-    return out
 
 
 def angles(n, gt):
