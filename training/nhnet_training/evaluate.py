@@ -47,11 +47,25 @@ def cloud_data(data_dir: str, c: dict, points: int, cache: Path, threads: int):
         _compute_cloud(data_dir, c, max(points, 20000), f, threads)
     with np.load(f) as z:
         d = {k: z[k] for k in z.files}
+    d["pca"] = pca_auto(data_dir, c, d["rows"], f.with_suffix(".pca-auto.npy"), threads)
     if len(d["rows"]) > points:  # a fixed subset of the stored rows
         keep = np.sort(np.random.default_rng(12345).choice(len(d["rows"]), points, replace=False))
-        for k in ("rows", "features", "rotations", "mfps", "gt", "valid"):
+        for k in ("rows", "features", "rotations", "mfps", "gt", "valid", "pca"):
             d[k] = d[k][keep]
     return d
+
+
+def pca_auto(data_dir: str, c: dict, rows: np.ndarray, f: Path, threads: int) -> np.ndarray:
+    """The core's PCA with the noise-driven k (bench's pca-auto, `--method pca`) on the whole
+    cloud, at the stored rows; cached next to the descriptors."""
+    if not f.exists():
+        import nhnet
+
+        xyz = np.loadtxt(Path(data_dir) / "benchmark" / c["files"][0], ndmin=2)
+        n = nhnet.estimate_normals(xyz, method="pca", k=0, threads=threads)[rows]
+        np.save(f.with_suffix(".tmp.npy"), n)
+        f.with_suffix(".tmp.npy").replace(f)
+    return np.load(f)
 
 
 def _compute_cloud(data_dir: str, c: dict, points: int, f: Path, threads: int) -> None:
@@ -136,14 +150,15 @@ def main(argv=None) -> int:
     for c in pick_clouds(a.data_dir, a.per_category, a.categories, a.clouds):
         d = cloud_data(a.data_dir, c, a.points, cache, a.threads)
         r = {"cloud": c["name"], "category": c["category"], "noise": c["noise_percent"],
-             "variant": c["variant"], "mfps": angle_stats(angles(d["mfps"], d["gt"]))}
+             "variant": c["variant"], "mfps": angle_stats(angles(d["mfps"], d["gt"])),
+             "pca-auto": angle_stats(angles(d["pca"], d["gt"]))}
         for name, m in models:
             t0 = time.time()
             r[name] = angle_stats(angles(refine(m, d), d["gt"]))
             r[name]["pts_per_s"] = len(d["features"]) / (time.time() - t0)
         rows.append(r)
         print(json.dumps(r), flush=True)
-    names = ["mfps"] + [n for n, _ in models]
+    names = ["pca-auto", "mfps"] + [n for n, _ in models]
     print(report(rows, names))
     if a.json:
         Path(a.json).write_text(json.dumps(rows, indent=1))
