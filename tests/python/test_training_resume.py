@@ -146,3 +146,19 @@ def test_resume_without_checkpoint_starts_from_the_beginning(tmp_path):
     assert any("no " in s and "starting from the beginning" in s for s in logs)
     b = train(tiny(tmp_path / "b", epochs=1), data=data, log=lambda s: None)
     assert a["val_rms"] == b["val_rms"] and a["steps"] == b["steps"]
+
+
+def test_validation_reported_per_noise_level_and_kind(tmp_path):
+    """With cloud names (as build_dataset gives them), every epoch's validation is split by noise
+    level (+ density variant) and by CAD / organic training model, and the splits add up."""
+    data = synthetic(n=1200)
+    data["names"] = np.array(["tripod_noise0.1", "bear_gradient_noise0", "horizons_noise1.2"])
+    data["cloud"] = np.repeat(np.arange(3), 400).astype(np.int32)
+    logs = []
+    train(tiny(tmp_path / "r", epochs=1), data=data, log=logs.append)
+    row = json.loads((tmp_path / "r" / "history.json").read_text())["history"][0]
+    assert sorted(row["val_groups"]) == ["noise 0% gradient", "noise 0.1%", "noise 1.2%"]
+    assert sorted(row["val_kinds"]) == ["CAD", "organic"]
+    assert row["val_kinds"]["CAD"]["count"] == row["val_groups"]["noise 0.1%"]["count"]
+    assert sum(g["count"] for g in row["val_kinds"].values()) == row["val"]["count"]
+    assert any(s.startswith("[train]   organic: RMS") for s in logs)

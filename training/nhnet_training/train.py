@@ -5,7 +5,8 @@
 
 Loss: Eq. 8 plus terms aimed at RMS (model.loss_fn); the model kept is the one with the lowest
 validation RMS (`--select-by rms`, angle RMS over the validation split). Every epoch logs RMS,
-mean, PGP5/PGP10 and the share over 30 degrees, overall and per noise level.
+mean, PGP5/PGP10 and the share over 30 degrees, overall, per CAD / organic model and per noise
+level.
 
 Resumable: `last.ckpt` (model, optimiser, weight average, schedule position, numpy and torch RNG
 states, epoch and position in it, best validation, history) is written atomically (temp +
@@ -109,6 +110,18 @@ def sample_groups(data: dict, n: int) -> np.ndarray:
     return np.array(labels)[np.asarray(data["cloud"])]
 
 
+def sample_kinds(data: dict, n: int) -> np.ndarray:
+    """'CAD' or 'organic' (datagen's two lists of training models; the benchmark's categories do
+    not apply to training shapes) of every sample's model, 'all' without cloud names."""
+    if "cloud" not in data or "names" not in data:
+        return np.full(n, "all")
+    from .datagen import TRAIN_CAD
+
+    models = [str(s).rpartition("_noise")[0] for s in data["names"]]
+    models = [m.removesuffix("_gradient").removesuffix("_stripes") for m in models]
+    return np.array(["CAD" if m in TRAIN_CAD else "organic" for m in models])[np.asarray(data["cloud"])]
+
+
 def set_lr(cfg: TrainConfig, opt, step: int, steps_per_epoch: int, minutes: float) -> None:
     if cfg.lr_schedule == "cosine":
         # Time-based: the run ends at max_minutes with the step size near 0, which settles the
@@ -163,6 +176,7 @@ class Run:
         val, self.tr = perm[:n_val], perm[n_val:]
         self.x, self.y, self.xv, self.yv = x, y, x[val], y[val]
         self.groups = sample_groups(data, n)[val]
+        self.kinds = sample_kinds(data, n)[val]
         self.base = angle_stats(unoriented_angle_deg(self.xv[:, 0:3], self.yv).numpy())
         self.model = build_model(cfg)
         self.warm = warm_start(self.model, cfg.init_from) if cfg.init_from else 0
@@ -241,7 +255,7 @@ def end_epoch(run: Run, log) -> bool:
     stats = angle_stats(errs)
     row = {"epoch": s["epoch"], "train_loss": s["total"] / max(s["seen"], 1), "val_deg": stats["mean"],
            "val_rms": stats["rms"], "val": stats, "minutes": s["minutes"],
-           "val_groups": grouped_stats(errs, run.groups)}
+           "val_groups": grouped_stats(errs, run.groups), "val_kinds": grouped_stats(errs, run.kinds)}
     kind, kept_stats, kept = "raw", stats, run.model
     shown = ""
     if run.average is not None:
@@ -253,7 +267,7 @@ def end_epoch(run: Run, log) -> bool:
     s["history"].append(row)
     log(f"[train] epoch {s['epoch']} loss {row['train_loss']:.5f} val {format_stats(stats)}{shown} "
         f"(MFPS RMS {run.base['rms']:.3f} mean {run.base['mean']:.3f}) {s['minutes']:.1f} min")
-    for g, gs in row["val_groups"].items():
+    for g, gs in list(row["val_kinds"].items()) + list(row["val_groups"].items()):
         log(f"[train]   {g}: {format_stats(gs)}")
     improved = kept_stats[key] < s["best"]
     if improved:
