@@ -158,6 +158,9 @@ def test_splits_disjoint_and_no_test_only_in_train():
     for prefix in ("fandisk", "armadillo", "bunny", "cube"):
         assert meshes.is_test_only(prefix + "_x") and meshes.is_test_only(prefix.upper())
     assert len(bench) == 35
+    # Issue 23: at least as many organic training shapes as CAD ones, together all the models.
+    assert len(datagen.TRAIN_ORGANIC) >= len(datagen.TRAIN_CAD) == 16
+    assert datagen.TRAIN_MODELS == datagen.TRAIN_CAD + datagen.TRAIN_ORGANIC
     for subset in (False, True):
         planned = {j.model for j in datagen.plan_train(100, subset)}
         assert planned and not planned & bench

@@ -14,6 +14,7 @@ SIGMA_R = [0.1, 0.2, 0.35, 0.5]
 PATCH_SIZE = 7
 NEIGHBORHOOD_FACTOR = 1.5
 NUM_NORMALS = 1 + len(SIGMA_S) * len(SIGMA_R)
+MODEL_FORMAT = 2
 
 
 def descriptor_size(patch: int = PATCH_SIZE, normals: int = NUM_NORMALS) -> int:
@@ -38,10 +39,20 @@ class TrainConfig:
     hidden2: int = 32
     dropout: float = 0.3
     residual: bool = True                      # output = normalise(self normal + correction)
+    arch: str = "nhnet"                        # "nhnet": the paper's design (up to v6); "fit":
+                                               # + learned weighted plane fits (model.NhNetFit)
+    init_from: str = ""                        # warm start: model.pt (TorchScript) or a .ckpt whose
+                                               # parameters of the same name and shape are loaded
+                                               # (v6 -> the "fit" network's branches and gather)
+    fit_channels: int = 8                      # "fit": channels of the per-map weight CNN
+    fit_scales: List[float] = field(default_factory=lambda: [1.5, 3.5])  # "fit": window sigmas
+                                               # (cells) of the plane fits, one fit per scale
     # optimisation (authors: SGD lr 1e-4 momentum 0.9 wd 0.02, batch 512, patience 30)
     optimizer: str = "adam"
     lr: float = 1e-3
-    lr_schedule: str = "cosine"               # "cosine": decays to 0 over max_minutes; "constant"
+    lr_schedule: str = "cosine"               # "cosine": decays to 0 over max_minutes (wall clock);
+                                               # "cosine-steps": to 0 over `epochs` epochs by step
+                                               # count (exactly resumable); "constant"
     weight_decay: float = 1e-5
     batch: int = 512
     epochs: int = 20
@@ -52,6 +63,12 @@ class TrainConfig:
                                                # validated beside the raw weights every epoch and
                                                # kept when it is better
     seed: int = 1
+    # loss (model.loss_fn): Eq. 8 + these weights x the RMS-aimed terms (0, 0 = Eq. 8 alone, v6)
+    loss_sin2: float = 1.0                     # x mean sin^2(angle)
+    loss_rms: float = 0.25                     # x batch RMS of the angle (radians)
+    select_by: str = "rms"                     # model selection on validation "rms" or "mean"
+    checkpoint_minutes: float = 10.0           # resumable checkpoint (last.ckpt) at least this
+                                               # often, and after every epoch
     # output
     out_dir: str = "runs/nhnet"
 
@@ -77,5 +94,10 @@ def metadata(cfg: TrainConfig) -> dict:
         "neighborhood_factor": NEIGHBORHOOD_FACTOR,
         "height_normalisation": HEIGHT_NORMALISATION,
         "output": "unit normal in the canonical frame",
+        # 2 since the "fit" architecture (models up to v6 have no key: format 1, arch "nhnet");
+        # the C++ loader reads neither, both formats take the same descriptor and give the same
+        # output, so every version loads.
+        "model_format": MODEL_FORMAT,
+        "architecture": cfg.arch,
         "config": dataclasses.asdict(cfg),
     }

@@ -4,7 +4,8 @@
 mfps`) and the descriptors; the exported TorchScript model (= what `nhnet-cli estimate --method
 nhnet` runs; tests/core/test_nhnet_model.cpp checks C++ == Python) refines them. Errors are the
 unoriented angles to the ground truth (as `nhnet-cli eval`), on a fixed random subset of each
-cloud's points (the whole cloud is processed).
+cloud's points (the whole cloud is processed); reported as RMS, mean, PGP5/PGP10 and the share
+over 30 degrees, per category and per noise level (metrics.py).
 
     nhnet-evaluate --data-dir data/generated --model models/nhnet.pt --per-category 3
 """
@@ -17,6 +18,8 @@ from pathlib import Path
 
 import numpy as np
 import torch
+
+from .metrics import angle_stats, mean_of_stats
 
 
 def pick_clouds(data_dir: str, per_category: int, categories=None, names=None):
@@ -32,16 +35,40 @@ def pick_clouds(data_dir: str, per_category: int, categories=None, names=None):
         if categories and cat not in categories:
             continue
         cl = sorted(by_cat[cat], key=lambda c: c["name"])
-        step = len(cl) / per_category
-        out += [cl[int(i * step + step / 2)] for i in range(min(per_category, len(cl)))]
+        take = min(per_category, len(cl))  # (per_category > len(cl) once repeated clouds)
+        step = len(cl) / take
+        out += [cl[int(i * step + step / 2)] for i in range(take)]
     return out
 
 
 def cloud_data(data_dir: str, c: dict, points: int, cache: Path, threads: int):
     f = cache / f"{c['name']}.npz"
-    if f.exists():
-        with np.load(f) as z:
-            return {k: z[k] for k in z.files}
+    if not f.exists():  # stored with at least the default 20 000 rows, subsets taken below
+        _compute_cloud(data_dir, c, max(points, 20000), f, threads)
+    with np.load(f) as z:
+        d = {k: z[k] for k in z.files}
+    d["pca"] = pca_auto(data_dir, c, d["rows"], f.with_suffix(".pca-auto.npy"), threads)
+    if len(d["rows"]) > points:  # a fixed subset of the stored rows
+        keep = np.sort(np.random.default_rng(12345).choice(len(d["rows"]), points, replace=False))
+        for k in ("rows", "features", "rotations", "mfps", "gt", "valid", "pca"):
+            d[k] = d[k][keep]
+    return d
+
+
+def pca_auto(data_dir: str, c: dict, rows: np.ndarray, f: Path, threads: int) -> np.ndarray:
+    """The core's PCA with the noise-driven k (bench's pca-auto, `--method pca`) on the whole
+    cloud, at the stored rows; cached next to the descriptors."""
+    if not f.exists():
+        import nhnet
+
+        xyz = np.loadtxt(Path(data_dir) / "benchmark" / c["files"][0], ndmin=2)
+        n = nhnet.estimate_normals(xyz, method="pca", k=0, threads=threads)[rows]
+        np.save(f.with_suffix(".tmp.npy"), n)
+        f.with_suffix(".tmp.npy").replace(f)
+    return np.load(f)
+
+
+def _compute_cloud(data_dir: str, c: dict, points: int, f: Path, threads: int) -> None:
     import nhnet
 
     base = Path(data_dir) / "benchmark"
@@ -55,10 +82,9 @@ def cloud_data(data_dir: str, c: dict, points: int, cache: Path, threads: int):
     out = {"rows": rows, "features": d["features"][rows], "rotations": d["rotations"][rows],
            "mfps": d["normals"][rows], "gt": gt[rows], "valid": d["valid"][rows],
            "seconds": np.array(secs), "n": np.array(len(xyz))}
-    cache.mkdir(parents=True, exist_ok=True)
+    f.parent.mkdir(parents=True, exist_ok=True)
     np.savez(f.with_suffix(".tmp.npz"), **out)
     f.with_suffix(".tmp.npz").replace(f)
-    return out
 
 
 def angles(n, gt):
@@ -77,6 +103,30 @@ def refine(model, d, batch=4096):
             local[j] = model(x[j]).double().numpy()
     world = np.einsum("nji,nj->ni", d["rotations"], local)  # R^T y
     return np.where(ok[:, None], world, d["mfps"])
+
+
+def report(rows, names) -> str:
+    """Markdown tables: RMS / mean / PGP5 / PGP10 / share over 30 degrees of every method, per
+    category and per noise level (+ density variant), each the mean of the clouds' figures (the
+    benchmark's way)."""
+    def table(title, key_of):
+        keys = sorted({key_of(r) for r in rows}, key=str) + ["all"]
+        head = " | ".join(f"{n} {k}" for n in names for k in ("RMS", "mean", "PGP5", "PGP10", ">30"))
+        out = [f"\n{title}\n", f"| {title.split()[-1]} | clouds | {head} |",
+               "|---|---|" + "---|" * (5 * len(names))]
+        for key in keys:
+            rs = [r for r in rows if key == "all" or key_of(r) == key]
+            cells = []
+            for n in names:
+                st = mean_of_stats([r[n] for r in rs])
+                cells += [f"{st['rms']:.2f}", f"{st['mean']:.2f}", f"{st['pgp5']:.1f}",
+                          f"{st['pgp10']:.1f}", f"{st['over30']:.2f}"]
+            out.append(f"| {key} | {len(rs)} | " + " | ".join(cells) + " |")
+        return "\n".join(out)
+
+    return (table("Per category", lambda r: r["category"]) + "\n"
+            + table("Per noise level", lambda r: f"{r['noise']}%"
+                    + ("" if r["variant"] == "uniform" else " " + r["variant"])))
 
 
 def main(argv=None) -> int:
@@ -99,21 +149,17 @@ def main(argv=None) -> int:
     rows = []
     for c in pick_clouds(a.data_dir, a.per_category, a.categories, a.clouds):
         d = cloud_data(a.data_dir, c, a.points, cache, a.threads)
-        r = {"cloud": c["name"], "category": c["category"], "mfps": float(angles(d["mfps"], d["gt"]).mean())}
+        r = {"cloud": c["name"], "category": c["category"], "noise": c["noise_percent"],
+             "variant": c["variant"], "mfps": angle_stats(angles(d["mfps"], d["gt"])),
+             "pca-auto": angle_stats(angles(d["pca"], d["gt"]))}
         for name, m in models:
             t0 = time.time()
-            r[name] = float(angles(refine(m, d), d["gt"]).mean())
-            r[name + "_pts_per_s"] = len(d["features"]) / (time.time() - t0)
+            r[name] = angle_stats(angles(refine(m, d), d["gt"]))
+            r[name]["pts_per_s"] = len(d["features"]) / (time.time() - t0)
         rows.append(r)
         print(json.dumps(r), flush=True)
-    names = ["mfps"] + [n for n, _ in models]
-    cats = sorted({r["category"] for r in rows})
-    print("\n| category | clouds | " + " | ".join(names) + " |")
-    print("|---|---|" + "---|" * len(names))
-    for cat in cats + ["all"]:
-        rs = [r for r in rows if cat == "all" or r["category"] == cat]
-        vals = " | ".join(f"{np.mean([r[n] for r in rs]):.2f}" for n in names)
-        print(f"| {cat} | {len(rs)} | {vals} |")
+    names = ["pca-auto", "mfps"] + [n for n, _ in models]
+    print(report(rows, names))
     if a.json:
         Path(a.json).write_text(json.dumps(rows, indent=1))
     return 0

@@ -10,7 +10,7 @@ from pathlib import Path
 import torch
 
 from .config import TrainConfig, metadata
-from .model import NhNet
+from .model import NhNet, build_model
 
 META_NAME = "nhnet.json"
 
@@ -18,7 +18,7 @@ META_NAME = "nhnet.json"
 def load_checkpoint(path: str) -> tuple[NhNet, TrainConfig, dict]:
     ck = torch.load(path, map_location="cpu")
     cfg = TrainConfig.from_dict(json.loads(ck["config"]))
-    model = NhNet(cfg)
+    model = build_model(cfg)
     model.load_state_dict(ck["model"])
     model.eval()
     return model, cfg, ck.get("info", {})

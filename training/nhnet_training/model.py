@@ -6,6 +6,8 @@ m x m height maps (core/include/nhnet/learned/descriptors.hpp). The 9 branches h
 run as grouped convolutions (one call for all branches)."""
 from __future__ import annotations
 
+import math
+
 import torch
 import torch.nn as nn
 import torch.nn.functional as F
@@ -53,13 +55,142 @@ class NhNet(nn.Module):
         return F.normalize(out, dim=1)
 
 
+def solve3(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
+    """Solves a x = b for batches of 3 x 3 matrices (..., 3, 3) by the adjugate (cofactors), which
+    TorchScript and every libtorch CPU build run without LAPACK; det is kept away from 0."""
+    c0 = torch.cross(a[..., 1, :], a[..., 2, :], dim=-1)
+    c1 = torch.cross(a[..., 2, :], a[..., 0, :], dim=-1)
+    c2 = torch.cross(a[..., 0, :], a[..., 1, :], dim=-1)
+    det = (a[..., 0, :] * c0).sum(-1, keepdim=True)
+    det = torch.where(det.abs() < 1e-9, torch.full_like(det, 1e-9), det)
+    # inverse = [c0 c1 c2] / det (columns), so x = (c0 b0 + c1 b1 + c2 b2) / det
+    x = c0 * b[..., 0:1] + c1 * b[..., 1:2] + c2 * b[..., 2:3]
+    return x / det
+
+
+class NhNetFit(nn.Module):
+    """NH-Net v7 candidate (issue 23): NH-Net's candidate choice plus learned weighted plane fits
+    over the raw neighbourhood, at more than one scale (the DeepFit/AdaFit family).
+
+    Same input as NhNet (the core's descriptor: F = 9 bilateral-filtered MFPS normals in the
+    canonical frame and, for each, the m x m height map of the neighbours around its tangent
+    plane, heights in cells), so the C++ inference runs it unchanged (TorchScript, same metadata
+    checks). Per map f a small grouped CNN gives one weight per bin and scale (softplus, times a
+    Gaussian window of `fit_scales` cells and zero on empty bins); a weighted least-squares plane
+    z = p u + q v + c over the bins, solved in closed form, tilts n_f into a fitted normal
+    n_f - p x_f - q y_f (x_f, y_f: the map's axes, Gram-Schmidt of the frame's e1, e2 as in
+    core/src/learned/height_map.cpp). Head: softmax weights over the F MFPS candidates and the
+    F S fits (NhNet's gathered features + the fits as input), started on the self normal, plus
+    NhNet's residual correction; an untrained network reproduces MFPS."""
+
+    def __init__(self, cfg: TrainConfig, num_normals: int = NUM_NORMALS, patch: int = PATCH_SIZE):
+        super().__init__()
+        base = NhNet(cfg, num_normals, patch)  # NhNet's layers under NhNet's names: a v6
+        self.branches, self.gather = base.branches, base.gather  # state dict warm-starts them
+        f, c, s = num_normals, cfg.fit_channels, len(cfg.fit_scales)
+        self.f, self.patch, self.scales = f, patch, s
+        self.weigher = nn.Sequential(
+            nn.Conv2d(2 * f, f * c, 3, padding=1, groups=f), nn.ReLU(),
+            nn.Conv2d(f * c, f * c, 3, padding=1, groups=f), nn.ReLU(),
+            nn.Conv2d(f * c, f * s, 1, groups=f),
+        )
+        half = patch // 2
+        g = torch.arange(patch, dtype=torch.float32) - half
+        u, v = torch.meshgrid(g, g, indexing="ij")  # u along the map's rows (x), v along columns
+        self.register_buffer("u", u.reshape(-1))
+        self.register_buffer("v", v.reshape(-1))
+        win = torch.stack([torch.exp(-0.5 * (u * u + v * v) / (sc * sc)).reshape(-1)
+                           for sc in cfg.fit_scales])
+        self.register_buffer("window", win)  # (S, m m)
+        n_cand = f + f * s
+        self.choose = nn.Sequential(
+            nn.Linear(3 * f + 3 * f * s, cfg.hidden1), nn.ReLU(), nn.Linear(cfg.hidden1, n_cand))
+        nn.init.zeros_(self.choose[-1].weight)
+        with torch.no_grad():  # start on the self normal (softmax weight ~0.99)
+            self.choose[-1].bias.fill_(-3.0)
+            self.choose[-1].bias[0] = 3.0 + math.log(float(n_cand))
+
+    def fits(self, normals: torch.Tensor, maps: torch.Tensor) -> torch.Tensor:
+        """(B, F, 3) normals, (B, F, m, m) maps -> (B, F S, 3) fitted unit normals."""
+        b, f, s = normals.shape[0], self.f, self.scales
+        occupied = (maps != 0).to(maps.dtype)  # empty bins are exactly 0 (height_map.cpp)
+        x_in = torch.stack([maps, occupied], dim=2).reshape(b, 2 * f, self.patch, self.patch)
+        w = F.softplus(self.weigher(x_in)).reshape(b, f, s, -1)
+        w = w * self.window.unsqueeze(0).unsqueeze(0) * occupied.reshape(b, f, 1, -1) + 1e-6
+        z = maps.reshape(b, f, 1, -1)
+        u, v = self.u, self.v
+        one = torch.ones_like(u)
+        basis = torch.stack([u, v, one])  # (3, m m)
+        a = torch.einsum("bfsk,ik,jk->bfsij", w, basis, basis)
+        a = a + 1e-3 * torch.eye(3, dtype=a.dtype, device=a.device)
+        rhs = torch.einsum("bfsk,ik->bfsi", w * z, basis)
+        pq = solve3(a, rhs)  # (B, F, S, 3): slope along x, along y, offset
+        n = normals.unsqueeze(2)
+        ex = torch.zeros_like(n)
+        ex[..., 0] = 1.0
+        ey = torch.zeros_like(n)
+        ey[..., 1] = 1.0
+        x = ex - n[..., 0:1] * n  # e1 = (1, 0, 0) and e2 = (0, 1, 0) in the canonical frame
+        x = torch.where((x * x).sum(-1, keepdim=True) < 1e-12, ey - n[..., 1:2] * n, x)
+        x = F.normalize(x, dim=-1)
+        y = ey - n[..., 1:2] * n - x[..., 1:2] * x
+        y = torch.where((y * y).sum(-1, keepdim=True) < 1e-12, torch.cross(n.expand_as(x), x, dim=-1), y)
+        y = F.normalize(y, dim=-1)
+        fitted = n - pq[..., 0:1] * x - pq[..., 1:2] * y
+        return F.normalize(fitted, dim=-1).reshape(b, f * s, 3)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        b, f = x.shape[0], self.f
+        normals = x[:, : 3 * f].reshape(b, f, 3)
+        maps = x[:, 3 * f:].reshape(b, f, self.patch, self.patch)
+        mats = self.branches(maps).reshape(b, f, 3, 3)
+        c = torch.matmul(mats, normals.unsqueeze(-1)).reshape(b, 3 * f)
+        fitted = self.fits(normals, maps)
+        cand = torch.cat([normals, fitted], dim=1)  # (B, F + F S, 3)
+        alpha = torch.softmax(self.choose(torch.cat([c, fitted.reshape(b, -1)], dim=1)), dim=1)
+        blend = (alpha.unsqueeze(-1) * cand).sum(dim=1)
+        return F.normalize(blend + self.gather(c), dim=1)
+
+
+def build_model(cfg: TrainConfig) -> nn.Module:
+    """The network `cfg.arch` names: "nhnet" (the paper's design, models up to v6) or "fit"."""
+    if cfg.arch == "nhnet":
+        return NhNet(cfg)
+    if cfg.arch == "fit":
+        return NhNetFit(cfg)
+    raise ValueError(f"unknown arch '{cfg.arch}' (nhnet, fit)")
+
+
 def unoriented_angle_deg(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
     """Per-row angle between unit vectors, sign ignored (the benchmark's metric)."""
     cos = (a * b).sum(dim=1).abs().clamp(max=1.0)
     return torch.rad2deg(torch.acos(cos))
 
 
-def loss_fn(out: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
+def loss_fn(out: torch.Tensor, target: torch.Tensor, sin2_weight: float = 0.0,
+            rms_weight: float = 0.0) -> torch.Tensor:
     """Eq. 8 without the L2 term (that is the optimiser's weight decay): ||N* - N_gt||^2, with the
-    target oriented to the self normal's side (done in the dataset)."""
-    return ((out - target) ** 2).sum(dim=1).mean()
+    target oriented to the self normal's side (done in the dataset), plus two terms (issue 23).
+
+    Eq. 8 is already close to the squared angle (4 sin^2(a/2) = a^2 (1 - a^2/12 + ...), 19 %
+    below a^2 at 90 degrees), i.e. to RMS^2; the added terms change how the errors are weighed:
+
+    - `sin2_weight` x mean sin^2(angle) = |N* x N_gt|^2: sign-free (unoriented), where Eq. 8
+      punishes an output past 90 degrees from the MFPS side that is right up to its sign; its
+      pull on a sample peaks at 45 degrees (gradient sin(2 angle)): the middle of the range;
+    - `rms_weight` x sqrt(mean angle^2) (radians, unoriented, over the batch): the batch's RMS
+      itself. Its pull on one sample is angle / (n RMS_batch): proportional to the sample's
+      error and, unlike a mean of squares, not fading as the batch's errors shrink, so late in
+      training the few large errors of a batch keep most of the gradient.
+
+    The angle is atan2(|a x b|, |a . b|) with eps under the root: finite gradient at 0."""
+    loss = ((out - target) ** 2).sum(dim=1).mean()
+    if sin2_weight > 0.0 or rms_weight > 0.0:
+        cross = torch.cross(out, target, dim=1)
+        sin2 = (cross * cross).sum(dim=1)
+        if sin2_weight > 0.0:
+            loss = loss + sin2_weight * sin2.mean()
+        if rms_weight > 0.0:
+            ang = torch.atan2(torch.sqrt(sin2 + 1e-12), (out * target).sum(dim=1).abs())
+            loss = loss + rms_weight * torch.sqrt((ang * ang).mean() + 1e-12)
+    return loss
