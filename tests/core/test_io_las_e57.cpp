@@ -125,7 +125,7 @@ TEST_F(LasE57Test, MovedPointIsRequantizedOthersKept) {
   const Points before = c.points;
   c.points(3, 0) += 1.0;
   write_cloud(path("b.las"), c);
-  const Cloud d = read_cloud(path("b.las"));
+  Cloud d = read_cloud(path("b.las"));
   EXPECT_NEAR(d.points(3, 0), before(3, 0) + 1.0, 1e-8);
   d.points.row(3) = before.row(3);
   EXPECT_EQ((d.points - before).cwiseAbs().maxCoeff(), 0.0);
