@@ -52,6 +52,10 @@ struct Cloud {
 
   Eigen::Index size() const { return points.rows(); }
   bool has_normals() const { return normals.rows() == points.rows() && points.rows() > 0; }
+  /// True when the points form a grid_width x grid_height depth image (row-major).
+  bool organized() const {
+    return grid_width > 0 && grid_height > 0 && grid_width * grid_height == points.rows();
+  }
 };
 
 }  // namespace nhnet
