@@ -733,6 +733,11 @@ EOF2
   refused 3 trunc.laz "LAZ"
   refused 3 trunc.e57 "E57"
   refused 3 pose.e57 "scan 'tilted'" "not a rotation"
+  # LAZ sizes the laz crate would allocate before reading (fuzz/regressions/las): refused first.
+  cp "$NHNET_SOURCE_DIR/fuzz/regressions/las/laz_layer_size_4gib.laz" layer.laz
+  cp "$NHNET_SOURCE_DIR/fuzz/regressions/las/laz_chunk_count_4g.laz" chunks.laz
+  refused 3 layer.laz "LAZ: a compressed layer of 4294901770 bytes" "larger than the file"
+  refused 3 chunks.laz "LAZ: chunk table declares 4294967280 chunks"
   # The intact files are read (LAS -> LAS and LAZ -> PLY).
   accepted ok.las out.las --method pca
   accepted ok.laz out.ply --method pca

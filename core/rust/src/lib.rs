@@ -14,7 +14,8 @@ use e57::{
     E57Reader, E57Writer, Extension, Quaternion, Record, RecordDataType,
     RecordName, RecordValue, Transform, Translation,
 };
-use laz::{LasZipCompressor, LasZipDecompressor, LazVlr, LazVlrBuilder};
+use laz::laszip::ChunkTable;
+use laz::{LasZipCompressor, LasZipDecompressor, LazItemType, LazVlr, LazVlrBuilder};
 
 /// A byte buffer owned by Rust.
 #[repr(C)]
@@ -104,12 +105,84 @@ pub unsafe extern "C" fn nhnet_laz_decompress(
         if size == 0 || out.len() % size != 0 {
             return Err(format!("laszip VLR describes {size}-byte points"));
         }
+        check_layer_sizes(file, &vlr, point_offset)?;
         let mut cursor = Cursor::new(file);
         cursor.set_position(point_offset);
         let mut dec = LasZipDecompressor::new(cursor, vlr)
             .map_err(|e| format!("bad compressed point data: {e}"))?;
         dec.decompress_many(out).map_err(|e| format!("compressed point data: {e}"))
     })
+}
+
+fn u32_at(file: &[u8], pos: u64) -> Option<u64> {
+    let p = usize::try_from(pos).ok()?;
+    let b = file.get(p..p.checked_add(4)?)?;
+    Some(u64::from(u32::from_le_bytes([b[0], b[1], b[2], b[3]])))
+}
+
+/// Layer sizes per chunk of the layered (LAS 1.4, point formats 6-10) compressor; None for the
+/// point-wise one.
+fn layers_per_chunk(vlr: &LazVlr) -> Option<u64> {
+    let mut n = 0;
+    for item in vlr.items() {
+        n += match item.item_type() {
+            LazItemType::Point14 => 9,
+            LazItemType::RGB14 | LazItemType::WavePacket14 => 1,
+            LazItemType::RGBNIR14 => 2,
+            LazItemType::Byte14(count) => u64::from(count),
+            _ => return None,
+        };
+    }
+    Some(n)
+}
+
+/// The laz crate allocates each chunk's layers at the size the file declares before reading
+/// them (and aborts the process when that fails): refuse any layer, and any chunk table, larger
+/// than the file itself first.
+fn check_layer_sizes(file: &[u8], vlr: &LazVlr, point_offset: u64) -> Result<(), String> {
+    let len = file.len() as u64;
+    let mut starts = vec![point_offset + 8];
+    let i64_at = |pos: u64| {
+        file.get(pos as usize..(pos as usize).saturating_add(8))
+            .map(|b| i64::from_le_bytes([b[0], b[1], b[2], b[3], b[4], b[5], b[6], b[7]]))
+            .unwrap_or(-1)
+    };
+    // As the crate does: the offset before the points, else the last 8 bytes of the file.
+    let mut table_at = i64_at(point_offset);
+    if table_at <= point_offset as i64 && len >= 8 {
+        table_at = i64_at(len - 8);
+    }
+    if table_at > point_offset as i64 && (table_at as u64) < len {
+        let chunks = u32_at(file, table_at as u64 + 4).unwrap_or(0);
+        if chunks > len / 4 + 1 {
+            return Err(format!("chunk table declares {chunks} chunks, more than the file holds"));
+        }
+        let mut cursor = Cursor::new(file);
+        cursor.set_position(point_offset);
+        if let Ok(table) = ChunkTable::read_from(&mut cursor, vlr) {
+            let mut at = point_offset + 8;
+            for entry in &table {
+                at = at.saturating_add(entry.byte_count);
+                starts.push(at);
+            }
+        }
+    }
+    let Some(layers) = layers_per_chunk(vlr) else { return Ok(()) };
+    for start in starts {
+        let mut at = start + vlr.items_size() + 4;
+        for _ in 0..layers {
+            match u32_at(file, at) {
+                Some(size) if size > len => {
+                    return Err(format!(
+                        "a compressed layer of {size} bytes at byte {at}, larger than the file"
+                    ))
+                }
+                Some(_) => at += 4,
+                None => break,
+            }
+        }
+    }
+    Ok(())
 }
 
 /// The laszip VLR payload for point format `format` (0-10) with `extra_bytes` bytes after the
