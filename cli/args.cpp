@@ -3,7 +3,6 @@
 #include "args.hpp"
 
 #include "errors.hpp"
-#include "nhnet/learned/nhnet_model.hpp"
 #include "nhnet/pipeline/estimate.hpp"
 #include "nhnet/progress.hpp"
 
@@ -13,7 +12,6 @@
 #include <charconv>
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 
 namespace nhcli {
 
@@ -133,19 +131,6 @@ std::vector<std::string> cli_args(int argc, char** argv) {
     }
   std::reverse(args.begin(), args.end());
   return args;
-}
-
-std::string default_method(std::string& why) {
-  if (!nhnet::nhnet_available()) {
-    why = "this build has no libtorch";
-    return "mfps";
-  }
-  const std::string model = nhnet::default_model_path();
-  if (model.empty() || !std::ifstream(model).good()) {
-    why = "the NH-Net model " + (model.empty() ? std::string("file") : model) + " is missing";
-    return "mfps";
-  }
-  return "nhnet";
 }
 
 // ---- help texts ---------------------------------------------------------------------------------

@@ -1,6 +1,6 @@
 // Options shared by nhnet-cli's commands: strict parsers of numbers, lists and --orient values,
 // the argv rewrite for "--orient viewpoint X Y Z", the CLI11 wiring of options several commands
-// take (IN OUT, --threads, --seed, output flags), the default normal estimator, and the
+// take (IN OUT, --threads, --seed, output flags), and the
 // "(default: ...)" ends of help texts, built from the core's defaults.
 #pragma once
 
@@ -35,10 +35,6 @@ nhnet::OrientOptions parse_orient(const std::string& text);
 /// value "--orient=viewpoint:X,Y,Z", so --orient takes exactly one value and can never swallow
 /// the positional arguments that follow it.
 std::vector<std::string> cli_args(int argc, char** argv);
-
-/// The default normal estimator: "nhnet" when it can run (this build links libtorch and the
-/// shipped model file is there), else "mfps" with `why` saying why nhnet could not.
-std::string default_method(std::string& why);
 
 // ---- help texts ---------------------------------------------------------------------------------
 

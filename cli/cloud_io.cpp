@@ -44,7 +44,7 @@ void check_output(const std::string& in, const std::string& out, bool overwrite)
 void check_output_format(const std::string& out) {
   if (nhnet::format_from_extension(out) == nhnet::FileFormat::Auto)
     throw nhnet::InvalidOptions("cannot tell the output format from the extension of " + out +
-                                " (use .ply, .pcd, .xyz, .xyzn or .txt)");
+                                " (use .ply, .pcd, .xyz, .xyzn, .txt, .las, .laz or .e57)");
 }
 
 nhnet::Cloud read_input(Reporter& rep, const std::string& in, std::vector<std::string>& warnings) {

@@ -68,7 +68,8 @@ DenoiseSetup parse_denoise_args(const DenoiseArgs& a) {
   st.denoise.iterations = parse_int("--iterations", a.iterations, 1);
   if (!a.radius.empty()) st.denoise.radius = parse_double("--radius", a.radius, 0.0);
   st.denoise.run.threads = parse_int("--threads", a.threads, 0);
-  st.source = a.normals_from.empty() ? default_method(st.fallback_why) : a.normals_from;
+  st.source = a.normals_from.empty() ? nhnet::to_string(nhnet::default_method(&st.fallback_why))
+                                     : a.normals_from;
   if (std::find(kNormalSources.begin(), kNormalSources.end(), st.source) == kNormalSources.end())
     throw nhnet::InvalidOptions("--normals-from must be one of " + source_list(", ") + ", got '" +
                                 one_line(st.source) + "'");

@@ -122,8 +122,9 @@ Setup prepare(const EstimateArgs& a) {
   // cannot run instead of falling back).
   const bool nhnet_asked = !a.model.empty() || a.device != "auto";
   const std::string method = !a.method.empty() ? a.method
-                             : nhnet_asked     ? "nhnet"
-                                               : default_method(st.fallback_why);
+                             : nhnet_asked
+                                 ? "nhnet"
+                                 : nhnet::to_string(nhnet::default_method(&st.fallback_why));
   opt.method = nhnet::method_from_string(method);
   if (!a.k.empty()) opt.k = parse_int("--k", a.k, 3);
   opt.mfps.scales = parse_scales(a.scales);

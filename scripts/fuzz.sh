@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Fuzzes the point cloud readers with libFuzzer (clang, ASan + UBSan):
-#   bash scripts/fuzz.sh [SECONDS_PER_READER=60] [ply pcd xyz]
+#   bash scripts/fuzz.sh [SECONDS_PER_READER=60] [ply pcd xyz las e57]
 # Builds build-fuzz/ with clang and -DNHNET_FUZZ=ON, then runs fuzz_<fmt> for SECONDS on each
 # reader, starting from fuzz/corpus/<fmt> (+ the reproducers in fuzz/regressions/<fmt>). Hangs
 # (-timeout=10) and allocations above 2 GB (-rss_limit_mb=2048) count as failures. New inputs go
@@ -14,7 +14,7 @@ cd "$(dirname "${BASH_SOURCE[0]}")/.."
 seconds=${1:-60}
 shift || true
 formats=("$@")
-((${#formats[@]})) || formats=(ply pcd xyz)
+((${#formats[@]})) || formats=(ply pcd xyz las e57)
 
 if [[ ! -f build-fuzz/CMakeCache.txt ]]; then
   CC=clang CXX=clang++ cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \

@@ -22,7 +22,7 @@ PKGS=(
   # (bench/setup-open3d.sh makes it with python3-venv)
   libtbb-dev python3-matplotlib python3-venv
   # python side: bindings, data generation, training
-  python3-dev python3-numpy pybind11-dev
+  python3-dev python3-numpy pybind11-dev python3-pip
   # reader fuzzing (scripts/fuzz.sh): clang, its libFuzzer/sanitizer runtimes, its OpenMP
   clang libclang-rt-14-dev libomp-14-dev
   # MeshLab plugin: the stock MeshLab, Qt5 and GLEW headers it compiles against, dpkg-dev to
@@ -60,3 +60,19 @@ fi
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 bash scripts/apt-source.sh meshlab deps-src >/dev/null
 bash scripts/apt-source.sh cloudcompare deps-src >/dev/null
+
+# LAZ and E57 (core/rust: the laz and e57 crates, fetched by cargo at build time): cargo and
+# rustc, the machine's own (rustup) when on PATH or in ~/.cargo/bin, else Debian's.
+if ! command -v cargo >/dev/null 2>&1 && [ ! -x "$HOME/.cargo/bin/cargo" ]; then
+  echo "install-deps: installing Debian's cargo"
+  export DEBIAN_FRONTEND=noninteractive
+  $SUDO apt-get update -q
+  $SUDO apt-get install -y -q --no-install-recommends cargo
+fi
+
+# Independent LAS/LAZ/E57 readers and writers for the tests (tests/python/test_formats_las_e57.py,
+# tests/cli/bad_input_test.sh): laspy with lazrs, pye57 (wheels), into Debian's python3.
+if ! /usr/bin/python3 -c "import laspy, lazrs, pye57" >/dev/null 2>&1; then
+  echo "install-deps: installing laspy, lazrs, pye57 (PyPI)"
+  $SUDO /usr/bin/python3 -m pip install -q --break-system-packages laspy lazrs pye57
+fi

@@ -34,7 +34,11 @@ FileFormat parse_format(const std::optional<std::string>& name) {
   if (*name == "ply") return FileFormat::Ply;
   if (*name == "pcd") return FileFormat::Pcd;
   if (*name == "xyz") return FileFormat::Xyz;
-  throw InvalidOptions("unknown format '" + *name + "' (expected ply, pcd, xyz or None)");
+  if (*name == "las") return FileFormat::Las;
+  if (*name == "laz") return FileFormat::Laz;
+  if (*name == "e57") return FileFormat::E57;
+  throw InvalidOptions("unknown format '" + *name +
+                       "' (expected ply, pcd, xyz, las, laz, e57 or None)");
 }
 
 PyCloud read(const std::string& path, const std::optional<std::string>& format) {

@@ -696,4 +696,51 @@ case_row27_output_paths() {
   chmod 755 ro
 }
 
+case_row29_las_laz_e57_malformed() {
+  # LAS/LAZ from laspy (+ lazrs), E57 from pye57 (scripts/install-deps.sh), then broken.
+  $PY - <<'EOF2'
+import struct
+import numpy as np, laspy, pye57
+h = laspy.LasHeader(point_format=3, version="1.4")
+h.scales = [0.001] * 3
+h.offsets = [500000, 4000000, 0]
+las = laspy.LasData(h)
+rng = np.random.default_rng(0)
+las.x, las.y, las.z = 500000 + rng.uniform(0, 9, 200), 4000000 + rng.uniform(0, 9, 200), rng.uniform(0, 1, 200)
+las.write("ok.las")
+las.write("ok.laz")
+b = open("ok.las", "rb").read()
+open("trunc.las", "wb").write(b[:-7])
+open("head.las", "wb").write(b[:120])
+lie = bytearray(b); lie[247:255] = struct.pack("<Q", 1 << 40); lie[107:111] = struct.pack("<I", 0)
+open("lie.las", "wb").write(bytes(lie))
+fmt = bytearray(b); fmt[104] = 12
+open("fmt.las", "wb").write(bytes(fmt))
+z = open("ok.laz", "rb").read()
+open("trunc.laz", "wb").write(z[:len(z) // 2])
+e = pye57.E57("pose.e57", mode="w")
+p = rng.uniform(0, 1, (50, 3))
+e.write_scan_raw({"cartesianX": p[:, 0].copy(), "cartesianY": p[:, 1].copy(), "cartesianZ": p[:, 2].copy()},
+                 name="tilted", rotation=np.array([2.0, 0, 0, 0]), translation=np.zeros(3))
+e.close()
+e57 = open("pose.e57", "rb").read()
+open("trunc.e57", "wb").write(e57[:len(e57) // 2])
+EOF2
+  refused 3 trunc.las "header declares 200 points" "truncated?"
+  refused 3 head.las "truncated LAS header"
+  refused 3 lie.las "header declares 1099511627776 points"
+  refused 3 fmt.las "unknown LAS point format 12"
+  refused 3 trunc.laz "LAZ"
+  refused 3 trunc.e57 "E57"
+  refused 3 pose.e57 "scan 'tilted'" "not a rotation"
+  # LAZ sizes the laz crate would allocate before reading (fuzz/regressions/las): refused first.
+  cp "$NHNET_SOURCE_DIR/fuzz/regressions/las/laz_layer_size_4gib.laz" layer.laz
+  cp "$NHNET_SOURCE_DIR/fuzz/regressions/las/laz_chunk_count_4g.laz" chunks.laz
+  refused 3 layer.laz "LAZ: a compressed layer of 4294901770 bytes" "larger than the file"
+  refused 3 chunks.laz "LAZ: chunk table declares 4294967280 chunks"
+  # The intact files are read (LAS -> LAS and LAZ -> PLY).
+  accepted ok.las out.las --method pca
+  accepted ok.laz out.ply --method pca
+}
+
 run_case

@@ -8,6 +8,7 @@
 #include "nhnet/errors.hpp"
 #include "nhnet/eval/metrics.hpp"
 #include "nhnet/io/io.hpp"
+#include "nhnet/orient/auto.hpp"
 #include "nhnet/orient/orient.hpp"
 #include "nhnet/pipeline/describe.hpp"
 #include "nhnet/pipeline/estimate.hpp"

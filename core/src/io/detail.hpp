@@ -252,7 +252,7 @@ void write_rows(Sink& sink, const std::vector<Column>& cols, Eigen::Index rows, 
                 std::string& out);
 
 // ---------------------------------------------------------------------------------------------
-// Format readers and writers (io_ply.cpp, io_pcd.cpp, io_xyz.cpp)
+// Format readers and writers (ply.cpp, pcd.cpp, xyz.cpp, las.cpp, e57.cpp)
 
 Cloud read_ply(const FileBytes& file, std::vector<std::string>* warnings);
 Cloud read_pcd(const FileBytes& file, std::vector<std::string>* warnings);
@@ -261,6 +261,13 @@ Cloud read_xyz(const FileBytes& file, std::vector<std::string>* warnings);
 void write_ply(Sink& sink, const Cloud& cloud, bool ascii);
 void write_pcd(Sink& sink, const Cloud& cloud, bool ascii);
 void write_xyz(Sink& sink, const Cloud& cloud);
+
+/// LAS 1.0-1.4 and LAZ (las.cpp, las_write.cpp), E57 (e57.cpp); `path` names the output in
+/// errors.
+Cloud read_las(const FileBytes& file, std::vector<std::string>* warnings);
+Cloud read_e57(const FileBytes& file, std::vector<std::string>* warnings);
+void write_las(Sink& sink, const Cloud& cloud, bool compressed, const std::string& path);
+void write_e57(Sink& sink, const Cloud& cloud, const std::string& path);
 
 /// Decompresses an LZF stream into exactly `out_size` bytes. False when the stream is corrupt,
 /// would write past `out_size` or reference data before the output start, or ends short.

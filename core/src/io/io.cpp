@@ -1,6 +1,6 @@
 // Point cloud io entry points: reading the file, sniffing its format and dispatching to the
-// format readers (ply.cpp, pcd.cpp, xyz.cpp) and writers, which emit into an AtomicFile
-// (output.cpp).
+// format readers (ply.cpp, pcd.cpp, xyz.cpp, las.cpp, e57.cpp) and writers, which emit into an
+// AtomicFile (output.cpp).
 #include "nhnet/io/io.hpp"
 
 #include "io/detail.hpp"
@@ -35,6 +35,9 @@ FileFormat format_from_extension(const std::string& path) {
   if (ext == ".ply") return FileFormat::Ply;
   if (ext == ".pcd") return FileFormat::Pcd;
   if (ext == ".xyz" || ext == ".xyzn" || ext == ".txt" || ext == ".pts") return FileFormat::Xyz;
+  if (ext == ".las") return FileFormat::Las;
+  if (ext == ".laz") return FileFormat::Laz;
+  if (ext == ".e57") return FileFormat::E57;
   return FileFormat::Auto;
 }
 
@@ -92,6 +95,8 @@ static FileFormat sniff(const FileBytes& file, std::vector<std::string>* warning
   if (starts_with(b, "ply\n") || starts_with(b, "ply\r")) return FileFormat::Ply;
   if (starts_with(b, "# .PCD") || starts_with(b, "VERSION") || starts_with(b, "FIELDS"))
     return FileFormat::Pcd;
+  if (starts_with(b, "LASF")) return FileFormat::Las;
+  if (starts_with(b, "ASTM-E57")) return FileFormat::E57;
   const FileFormat by_extension = format_from_extension(file.path);
   if (by_extension == FileFormat::Xyz) return FileFormat::Xyz;
   if (looks_numeric(b)) {
@@ -104,7 +109,11 @@ static FileFormat sniff(const FileBytes& file, std::vector<std::string>* warning
     input_error(file.path, "not a PLY file (bad magic: the first line is not 'ply')");
   if (by_extension == FileFormat::Pcd)
     input_error(file.path, "not a PCD file (bad magic: no '# .PCD' or VERSION header line)");
-  input_error(file.path, "unrecognised format (not PLY, PCD or XYZ text)");
+  if (by_extension == FileFormat::Las || by_extension == FileFormat::Laz)
+    input_error(file.path, "not a LAS/LAZ file (bad magic: it does not start with 'LASF')");
+  if (by_extension == FileFormat::E57)
+    input_error(file.path, "not an E57 file (bad magic: it does not start with 'ASTM-E57')");
+  input_error(file.path, "unrecognised format (not PLY, PCD, XYZ text, LAS/LAZ or E57)");
 }
 
 Cloud read_cloud(const std::string& path, const ReadOptions& options,
@@ -117,6 +126,9 @@ Cloud read_cloud(const std::string& path, const ReadOptions& options,
     case FileFormat::Ply: return read_ply(file, warnings);
     case FileFormat::Pcd: return read_pcd(file, warnings);
     case FileFormat::Xyz: return read_xyz(file, warnings);
+    case FileFormat::Las:
+    case FileFormat::Laz: return read_las(file, warnings);
+    case FileFormat::E57: return read_e57(file, warnings);
     case FileFormat::Auto: break;
   }
   input_error(path, "unrecognised format");
@@ -129,13 +141,18 @@ void write_cloud(const std::string& path, const Cloud& cloud, const WriteOptions
   const FileFormat format =
       options.format == FileFormat::Auto ? format_from_extension(path) : options.format;
   if (format == FileFormat::Auto)
-    output_error(path, "cannot tell the output format from the extension (use .ply, .pcd, .xyz)");
+    output_error(path,
+                 "cannot tell the output format from the extension (use .ply, .pcd, .xyz, .las, "
+                 ".laz, .e57)");
   check_writable(path, cloud);
   AtomicFile file(path);
   switch (format) {
     case FileFormat::Ply: write_ply(file, cloud, options.ascii); break;
     case FileFormat::Pcd: write_pcd(file, cloud, options.ascii); break;
     case FileFormat::Xyz: write_xyz(file, cloud); break;
+    case FileFormat::Las: write_las(file, cloud, false, path); break;
+    case FileFormat::Laz: write_las(file, cloud, true, path); break;
+    case FileFormat::E57: write_e57(file, cloud, path); break;
     case FileFormat::Auto: break;
   }
   file.commit();

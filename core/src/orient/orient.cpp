@@ -1,4 +1,4 @@
-// Normal orientation (keep / viewpoint / MST, Hoppe et al. 1992, with a reflection criterion),
+// Normal orientation (keep / viewpoint / MST / up, Hoppe et al. 1992, with a reflection criterion),
 // see orient.hpp. The arrays never change order.
 #include "nhnet/orient/orient.hpp"
 
@@ -7,6 +7,7 @@
 #include "nhnet/geometry/pca.hpp"
 #include "nhnet/neighbors/neighbors.hpp"
 #include "orient/inside_outside.hpp"
+#include "orient/sensors.hpp"
 #include "util/parallel.hpp"
 #include "util/stats.hpp"
 
@@ -26,8 +27,11 @@ OrientMode orient_mode_from_string(const std::string& name) {
   if (name == "keep") return OrientMode::Keep;
   if (name == "viewpoint") return OrientMode::Viewpoint;
   if (name == "mst") return OrientMode::Mst;
+  if (name == "sensors") return OrientMode::Sensors;
+  if (name == "up") return OrientMode::Up;
+  if (name == "auto") return OrientMode::Auto;
   throw InvalidOptions("unknown orientation '" + name +
-                       "' (expected keep, viewpoint, mst or none)");
+                       "' (expected auto, keep, viewpoint, sensors, up, mst or none)");
 }
 
 const char* to_string(OrientMode mode) {
@@ -36,6 +40,9 @@ const char* to_string(OrientMode mode) {
     case OrientMode::Keep: return "keep";
     case OrientMode::Viewpoint: return "viewpoint";
     case OrientMode::Mst: return "mst";
+    case OrientMode::Sensors: return "sensors";
+    case OrientMode::Up: return "up";
+    case OrientMode::Auto: return "auto";
   }
   return "?";
 }
@@ -290,9 +297,27 @@ void drop_disputed_votes(const Prim& prim, const Adjacency& adj, std::vector<int
   vote.swap(keep);
 }
 
+/// Grows the trees from every point with a vote (its guide already turned to it) at once, so
+/// an undecided point takes the sign of its most confident path to a decided one. Returns how
+/// many points had a vote.
+int64_t grow_from_votes(Prim& prim, const std::vector<int8_t>& vote) {
+  const Eigen::Index m = Eigen::Index(vote.size());
+  int64_t decided = 0;
+  // All decided points are marked first, so only edges into undecided points enter the heap.
+  for (Eigen::Index i = 0; i < m; ++i)
+    if (vote[size_t(i)] != 0) {
+      prim.mark(int32_t(i));
+      ++decided;
+    }
+  for (Eigen::Index i = 0; i < m; ++i)
+    if (vote[size_t(i)] != 0) prim.visit(int32_t(i));
+  prim.drain(nullptr);
+  return decided;
+}
+
 /// Closed surfaces: every point the flood fill decides takes its side (inside_outside.hpp),
-/// and the trees grow from all of them at once, so an undecided point takes the sign of its
-/// most confident path to a decided one. Returns the flood fill (for copy_signs).
+/// and the trees grow from all of them at once (grow_from_votes). Returns the flood fill (for
+/// copy_signs).
 std::unique_ptr<detail::InsideOutside> grow_from_sides(Prim& prim, const Points& pts,
                                                        Normals& guide, const Graph& graph,
                                                        const OrientOptions& options,
@@ -303,20 +328,19 @@ std::unique_ptr<detail::InsideOutside> grow_from_sides(Prim& prim, const Points&
       std::make_unique<detail::InsideOutside>(pts, guide, graph.spacing, io, options.run.threads);
   res.voxel = sides->voxel();
   std::vector<int8_t> vote = sides->votes();
-  const Eigen::Index m = pts.rows();
-  for (Eigen::Index i = 0; i < m; ++i)
+  for (Eigen::Index i = 0; i < guide.rows(); ++i)
     if (vote[size_t(i)] < 0) guide.row(i) *= -1.0;
   drop_disputed_votes(prim, graph.adj, vote);
-  // All decided points are marked first, so only edges into undecided points enter the heap.
-  for (Eigen::Index i = 0; i < m; ++i)
-    if (vote[size_t(i)] != 0) {
-      prim.mark(int32_t(i));
-      ++res.inside_outside_votes;
-    }
-  for (Eigen::Index i = 0; i < m; ++i)
-    if (vote[size_t(i)] != 0) prim.visit(int32_t(i));
-  prim.drain(nullptr);
+  res.inside_outside_votes += grow_from_votes(prim, vote);
   return sides;
+}
+
+/// Up mode: the guides with |g_z| >= min_z turned up are the seeds (detail::up_votes).
+void grow_from_up(Prim& prim, Normals& guide, double min_z) {
+  const std::vector<int8_t> vote = detail::up_votes(guide, min_z);
+  for (Eigen::Index i = 0; i < guide.rows(); ++i)
+    if (vote[size_t(i)] < 0) guide.row(i) *= -1.0;
+  grow_from_votes(prim, vote);
 }
 
 /// Global sign of a tree: outward on the whole, sum_i (p_i - centroid) . n_i >= 0 (3 x the
@@ -403,7 +427,9 @@ std::vector<uint8_t> orient_mst(const Points& points, Normals& normals,
   Prim prim(pts, guide, graph, options, progress);
   res.components += count_components(graph.adj);
   std::unique_ptr<detail::InsideOutside> sides;
-  if (options.inside_outside && m >= 4)
+  if (options.mode == OrientMode::Up)
+    grow_from_up(prim, guide, options.up_min_z);
+  else if (options.inside_outside && m >= 4)
     sides = grow_from_sides(prim, pts, guide, graph, options, res);
   grow_from_tops(prim, pts, guide, options);
   progress.throw_if_cancelled();
@@ -446,11 +472,19 @@ void check_options(const Points& points, const Normals& normals, const OrientOpt
   if (normals.rows() != points.rows())
     throw InvalidOptions("orient: " + std::to_string(normals.rows()) + " normals for " +
                          std::to_string(points.rows()) + " points");
-  if (options.mode == OrientMode::Mst && options.k < 2)
+  const bool mst = options.mode == OrientMode::Mst || options.mode == OrientMode::Up;
+  if (options.mode == OrientMode::Auto)
+    throw InvalidOptions(
+        "orient: mode auto must first be resolved for the cloud "
+        "(resolve_orientation, nhnet/orient/auto.hpp)");
+  if (mst && options.k < 2)
     throw InvalidOptions("orient: mst needs k >= 2, got " + std::to_string(options.k));
-  if (options.mode == OrientMode::Mst && options.smooth_guide && options.guide_k < 3)
+  if (mst && options.smooth_guide && options.guide_k < 3)
     throw InvalidOptions("orient: the guide needs guide_k >= 3, got " +
                          std::to_string(options.guide_k));
+  if (options.mode == OrientMode::Up && !(options.up_min_z > 0 && options.up_min_z < 1))
+    throw InvalidOptions("orient up: up_min_z must be in (0, 1)");
+  if (options.mode == OrientMode::Sensors) detail::check_sensors(points, options);
   if (options.mode == OrientMode::Viewpoint && !options.viewpoint.allFinite())
     throw InvalidOptions("orient: the viewpoint must have finite coordinates");
   if (options.mode == OrientMode::Keep && reference.rows() != points.rows())
@@ -514,6 +548,15 @@ OrientResult orient_normals(const Points& points, Normals& normals, const Orient
       orient_viewpoint(points, normals, options.viewpoint, used, res);
       break;
     case OrientMode::Mst: orient_mst_deduplicated(points, normals, used, options, res); break;
+    case OrientMode::Sensors: detail::orient_sensors(points, normals, options, used, res); break;
+    case OrientMode::Up: {
+      const Normals before = normals;
+      OrientResult mst;
+      orient_mst_deduplicated(points, normals, used, options, mst);
+      detail::finish_up(before, normals, used, options.up_min_z, mst, res);
+      break;
+    }
+    case OrientMode::Auto: break;  // refused by check_options
   }
   return res;
 }

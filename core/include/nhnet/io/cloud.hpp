@@ -3,6 +3,8 @@
 
 #include "nhnet/types.hpp"
 
+#include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -19,15 +21,41 @@ struct ExtraProperty {
   std::vector<double> values;  ///< N values, one per point, in point order
 };
 
+/// A sensor that took (part of) a cloud, in the points' coordinates.
+struct Sensor {
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();  ///< sensor origin
+  Eigen::Matrix3d rotation =
+      Eigen::Matrix3d::Identity();  ///< sensor axes in the cloud frame (columns)
+  std::string source;               ///< for reports: "PCD VIEWPOINT", "E57 scan 'name'"...
+};
+
+/// What a LAS/LAZ input carried beyond the points (header, VLRs, EVLRs, every point's raw record),
+/// so that writing LAS/LAZ again passes each attribute through bit-exact. Defined in
+/// core/src/io/las.hpp; opaque here.
+struct LasSource;
+
 /// A point cloud: N x 3 points, optional N x 3 normals, and extra per-point properties that are
 /// carried through estimation unchanged.
 struct Cloud {
   Points points;                      ///< N x 3 coordinates (may contain non-finite rows)
   Normals normals;                    ///< N x 3 normals, or 0 x 3 when the file has none
   std::vector<ExtraProperty> extras;  ///< other per-point properties, in file order
+  std::vector<Sensor> sensors;        ///< sensors the file names; empty = none known
+  std::vector<int32_t>
+      sensor_index;         ///< per point, index into sensors; empty = all taken by sensors[0]
+  int64_t grid_width = 0;   ///< organized grid (depth image) width, row-major; 0 = unorganized
+  int64_t grid_height = 0;  ///< organized grid height; 0 = unorganized
+  bool airborne = false;  ///< taken from above, sensor unknown (airborne LAS/LAZ): normals face +z
+  /// LAS/LAZ input only: its header, VLRs and raw point records (read-only, shared by copies);
+  /// used by the LAS/LAZ writer while the point count is unchanged; null for other inputs.
+  std::shared_ptr<const LasSource> las_source;
 
   Eigen::Index size() const { return points.rows(); }
   bool has_normals() const { return normals.rows() == points.rows() && points.rows() > 0; }
+  /// True when the points form a grid_width x grid_height depth image (row-major).
+  bool organized() const {
+    return grid_width > 0 && grid_height > 0 && grid_width * grid_height == points.rows();
+  }
 };
 
 }  // namespace nhnet

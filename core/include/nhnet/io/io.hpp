@@ -1,5 +1,6 @@
 // Point cloud file io: PLY (ascii, binary little/big endian), PCD (ascii, binary,
-// binary_compressed), XYZ/XYZN text (x y z [nx ny nz] per line, whitespace separated).
+// binary_compressed), XYZ/XYZN text (x y z [nx ny nz] per line, whitespace separated), LAS
+// 1.0-1.4 and LAZ (point formats 0-10), E57 (every scan, poses applied).
 #pragma once
 
 #include "nhnet/io/cloud.hpp"
@@ -9,9 +10,10 @@
 
 namespace nhnet {
 
-enum class FileFormat { Auto, Ply, Pcd, Xyz };
+enum class FileFormat { Auto, Ply, Pcd, Xyz, Las, Laz, E57 };
 
-/// Format implied by a path's extension (.ply, .pcd, .xyz/.xyzn/.txt/.pts); Auto if unknown.
+/// Format implied by a path's extension (.ply, .pcd, .xyz/.xyzn/.txt/.pts, .las, .laz, .e57);
+/// Auto if unknown.
 FileFormat format_from_extension(const std::string& path);
 
 struct ReadOptions {
@@ -33,9 +35,12 @@ struct WriteOptions {
   bool ascii = false;
 };
 
-/// Writes a cloud (points, normals as float nx ny nz when present, extras). The data goes to a
-/// temporary file in the same directory which is renamed over `path` only when complete, so a
-/// failure never leaves a partial file. Throws OutputError naming the file and the reason.
+/// Writes a cloud (points, normals as float nx ny nz when present, extras). LAS/LAZ: a cloud read
+/// from LAS/LAZ with its point count unchanged keeps every attribute bit-exact, normals go into
+/// extra-bytes fields NormalX/Y/Z; E57: one scan per sensor, normals as the "nor" extension. The
+/// data goes to a temporary file in the same directory which is renamed over `path` only when
+/// complete, so a failure never leaves a partial file. Throws OutputError naming the file and the
+/// reason.
 void write_cloud(const std::string& path, const Cloud& cloud, const WriteOptions& options = {});
 
 }  // namespace nhnet

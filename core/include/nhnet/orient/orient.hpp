@@ -11,6 +11,14 @@
 //              (OrientOptions::reflect), which stays right across sharp edges and thin walls.
 //              By default it propagates smooth PCA guide normals and copies their signs (see
 //              OrientOptions::smooth_guide).
+//   sensors    like viewpoint, each point towards its own sensor (OrientOptions::sensors and
+//              sensor_index: merged scans, E57 files with several poses)
+//   up         taken from above (airborne LiDAR): n_z > 0 wherever the surface is not near
+//              vertical (|n_z| >= OrientOptions::up_min_z); the near-vertical rest takes its sign
+//              from the MST grown from those decided points at once
+//   auto       not a mode of its own: resolve_orientation() (auto.hpp) turns it into one of the
+//              above from what the cloud carries (input normals, sensors, organized grid,
+//              airborne); orient_normals() refuses it unresolved
 //   none       leave the signs as they are
 #pragma once
 
@@ -23,9 +31,10 @@
 
 namespace nhnet {
 
-enum class OrientMode { None, Keep, Viewpoint, Mst };
+enum class OrientMode { None, Keep, Viewpoint, Mst, Sensors, Up, Auto };
 
-/// "none" / "keep" / "viewpoint" / "mst"; throws InvalidOptions otherwise.
+/// "none" / "keep" / "viewpoint" / "mst" / "sensors" / "up" / "auto"; throws InvalidOptions
+/// otherwise.
 OrientMode orient_mode_from_string(const std::string& name);
 const char* to_string(OrientMode mode);
 
@@ -34,6 +43,16 @@ struct OrientOptions {
   OrientMode mode = OrientMode::Mst;
   /// Viewpoint mode: the sensor position, in the points' coordinates.
   Eigen::Vector3d viewpoint = Eigen::Vector3d::Zero();
+  /// Sensors mode: the sensor positions, in the points' coordinates.
+  std::vector<Eigen::Vector3d> sensors;
+  /// Sensors mode: per point, its sensor's index into `sensors`; empty = all sensors[0].
+  std::vector<int32_t> sensor_index;
+  /// Up mode: a normal with |n_z| >= up_min_z is turned to n_z > 0; the others (near-vertical
+  /// surfaces, walls) take their sign from the MST. 0.5 = surfaces tilted up to 60 degrees from
+  /// horizontal. An airborne scanner looks down within about 30 degrees of nadir (typical field
+  /// of view +-20..30 degrees), so a surface it sees with n_z <= -0.5 would face away from every
+  /// line of sight: below 30 degrees of tilt from vertical the sign is certain from z alone.
+  double up_min_z = 0.5;
   /// Mst mode: neighbours per point in the k-NN graph, self included (CGAL's examples: 18; at
   /// least 2). Larger k bridges gaps between sampled parts, smaller k keeps thin parts apart.
   int k = 18;

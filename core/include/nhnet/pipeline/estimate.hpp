@@ -25,6 +25,11 @@ enum class Method {
 Method method_from_string(const std::string& name);
 const char* to_string(Method method);
 
+/// Every front end's default method: NhNet when it can run (this build links libtorch and the
+/// shipped model file, default_model_path(), is there), else Mfps, with `fallback_why` (when
+/// given) set to why NH-Net could not run ("" when it can).
+Method default_method(std::string* fallback_why = nullptr);
+
 /// Spatial tiles (not in the paper; tiling.cpp): a cloud with more finite points than `points`
 /// is processed in tiles of at most that many points, each with a halo of the points around it,
 /// so memory is bounded by one tile whatever the cloud's size; results equal the untiled run's up

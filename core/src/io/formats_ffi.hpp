@@ -1,0 +1,76 @@
+// The C ABI of core/rust (the laz and e57 crates), used by las.cpp and e57.cpp. Not installed.
+// Every function returns 0 on success, 1 on failure with a one-line message in `err`.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+extern "C" {
+
+/// A byte buffer owned by the Rust side; release with nhnet_buf_free.
+struct NhBuf {
+  uint8_t* ptr;
+  size_t len;
+  size_t cap;
+};
+void nhnet_buf_free(NhBuf* buf);
+
+int nhnet_laz_decompress(const uint8_t* file, size_t file_len, const uint8_t* vlr, size_t vlr_len,
+                         uint64_t point_offset, uint8_t* out, size_t out_len, char* err,
+                         size_t err_cap);
+int nhnet_laz_vlr(uint8_t format, uint16_t extra_bytes, NhBuf* out, char* err, size_t err_cap);
+int nhnet_laz_compress(const uint8_t* prefix, size_t prefix_len, const uint8_t* vlr, size_t vlr_len,
+                       const uint8_t* points, size_t points_len, NhBuf* out, char* err,
+                       size_t err_cap);
+
+struct NhE57File;
+/// One scan as read: coordinates in the scan's own frame; arrays null when absent.
+struct NhE57ScanView {
+  const uint8_t* name;
+  size_t name_len;
+  int32_t has_pose;
+  double quat[4];  // w x y z
+  double trans[3];
+  size_t n;
+  const double* xyz;
+  const float* intensity;
+  const float* rgb;
+  const float* normals;
+  double color_max;
+  uint64_t dropped;  // points whose invalid-state flag was set
+};
+int nhnet_e57_read(const uint8_t* data, size_t len, NhE57File** out, char* err, size_t err_cap);
+size_t nhnet_e57_scan_count(const NhE57File* file);
+void nhnet_e57_scan(const NhE57File* file, size_t index, NhE57ScanView* view);
+void nhnet_e57_free(NhE57File* file);
+
+/// One scan to write: coordinates and normals in the scan's own frame; arrays may be null.
+struct NhE57ScanIn {
+  const uint8_t* name;
+  size_t name_len;
+  int32_t has_pose;
+  double quat[4];  // w x y z
+  double trans[3];
+  size_t n;
+  const double* xyz;
+  const float* intensity;
+  const uint16_t* rgb;
+  int64_t rgb_max;
+  const float* normals;
+};
+int nhnet_e57_write(const NhE57ScanIn* scans, size_t count, NhBuf* out, char* err, size_t err_cap);
+
+}  // extern "C"
+
+namespace nhnet::io_detail {
+
+/// Owns an NhBuf.
+struct RustBuf {
+  NhBuf buf{nullptr, 0, 0};
+  RustBuf() = default;
+  RustBuf(const RustBuf&) = delete;
+  RustBuf& operator=(const RustBuf&) = delete;
+  ~RustBuf() { nhnet_buf_free(&buf); }
+};
+
+}  // namespace nhnet::io_detail
