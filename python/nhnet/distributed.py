@@ -63,6 +63,8 @@ def _parse(argv):
                    help="tile halo in radii of the largest neighbourhood (default 4)")
     e.add_argument("--scratch", help="folder shared by every worker for the tile files "
                    "(default: next to the output)")
+    e.add_argument("--chunk-bytes", type=int, default=dio.CHUNK_BYTES,
+                   help="bytes of a single-file input per read / write task (default 32 MiB)")
     e.add_argument("--quiet", action="store_true", help="no progress bars")
     return ap.parse_args(argv)
 
@@ -112,7 +114,7 @@ class Job:
     def run(self):
         a = self.a
         folder = os.path.isdir(a.input) or any(ch in a.input for ch in "*?[")
-        self.source = dio.describe_folder(a.input) if folder else dio.describe_file(a.input)
+        self.source = dio.describe_folder(a.input) if folder else dio.describe_file(a.input, a.chunk_bytes)
         self.out_kind = "folder" if folder else dio.output_kind(a.output)
         parent = a.scratch or (os.path.dirname(os.path.abspath(a.output)) if not folder
                                else os.path.abspath(a.output))

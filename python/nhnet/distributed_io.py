@@ -20,8 +20,7 @@ _PLY_TYPES = {
 }
 _PCD_TYPES = {("F", 4): "f4", ("F", 8): "f8", ("I", 1): "i1", ("I", 2): "i2", ("I", 4): "i4",
               ("I", 8): "i8", ("U", 1): "u1", ("U", 2): "u2", ("U", 4): "u4", ("U", 8): "u8"}
-_TEXT_CHUNK = 32 << 20  # bytes of text per chunk
-_BINARY_CHUNK = 1 << 20  # rows per chunk of a binary file
+CHUNK_BYTES = 32 << 20  # default bytes of input per chunk (one scan / bin / write task each)
 TEXT_EXTS = (".xyz", ".xyzn", ".txt", ".pts", ".asc")
 
 
@@ -118,8 +117,9 @@ def _pcd_header(path, head):
     return src
 
 
-def describe_file(path):
-    """The source of one file, from its header only (the client's only read of the input)."""
+def describe_file(path, chunk_bytes=CHUNK_BYTES):
+    """The source of one file, from its header only (the client's only read of the input), cut
+    into chunks of about `chunk_bytes`."""
     try:
         with open(path, "rb") as f:
             head = f.read(1 << 16)
@@ -138,11 +138,13 @@ def describe_file(path):
         if src["data"] + src["count"] * item > size:
             raise SourceError(f"{path}: {src['count']} points declared, the file holds "
                               f"{max(0, size - src['data']) // item}")
-        src["chunks"] = [(a, min(a + _BINARY_CHUNK, src["count"]))
-                         for a in range(0, src["count"], _BINARY_CHUNK)] or [(0, 0)]
+        rows = max(1, chunk_bytes // item)
+        src["chunks"] = [(a, min(a + rows, src["count"]))
+                         for a in range(0, src["count"], rows)] or [(0, 0)]
     else:
-        src["chunks"] = [(a, min(a + _TEXT_CHUNK, size))
-                         for a in range(src["data"], size, _TEXT_CHUNK)] or [(size, size)]
+        step = max(1, chunk_bytes)
+        src["chunks"] = [(a, min(a + step, size))
+                         for a in range(src["data"], size, step)] or [(size, size)]
     return src
 
 
