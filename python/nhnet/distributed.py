@@ -21,6 +21,7 @@ scratch folder. Docs: docs/beyond-one-machine.md.
 """
 
 import argparse
+import heapq
 import os
 import shutil
 import sys
@@ -48,6 +49,9 @@ def _parse(argv):
                    "default: a local cluster of --workers processes")
     e.add_argument("--workers", type=int, default=0,
                    help="local cluster: worker processes (default: the cores)")
+    e.add_argument("--memory-limit", default="auto",
+                   help="local cluster: memory per worker, e.g. 4GB, or 0 for none (default "
+                   "auto: the machine's memory / --workers)")
     e.add_argument("--tile-points", type=int, default=1_000_000,
                    help="most points per tile (default 1000000)")
     e.add_argument("-m", "--method", default="mfps", choices=["pca", "mfps", "nhnet"])
@@ -220,9 +224,7 @@ class Job:
                 w[key] = w.get(key, 0.0) + s
         by = {r["tile"]: r for r in results}
         seed = max(tiles, key=lambda t: by[t]["top_z"])
-        signs, frontier = {seed: 1}, {}
-        import heapq  # noqa: PLC0415
-        heap = []
+        signs, heap = {seed: 1}, []
 
         def push(t):
             for (x, y), s in w.items():
@@ -240,7 +242,6 @@ class Job:
             push(u)
         for t in tiles:  # tiles that share no halo with the rest: their own MST's sign
             signs.setdefault(t, 1)
-        del frontier
         count = sum(by[t]["valid"] for t in tiles)
         centre = sum(by[t]["p"] for t in tiles) / max(1, count)
         vote = sum(signs[t] * (by[t]["pn"] - float(centre @ by[t]["n"])) for t in tiles)
@@ -284,9 +285,15 @@ def _client(args, log):
         client = Client(args.scheduler)
     else:
         n = args.workers or os.cpu_count() or 1
-        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True)
+        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                               memory_limit=0 if args.memory_limit == "0" else args.memory_limit)
         client = Client(cluster)
-    log(f"dashboard: {client.dashboard_link}")
+    try:
+        import bokeh  # noqa: F401,PLC0415  (the dashboard's web pages need it)
+        note = ""
+    except ImportError:
+        note = " (served only where the scheduler has bokeh, which Debian 12 does not package)"
+    log(f"dashboard: {client.dashboard_link}{note}")
     return client
 
 
