@@ -263,3 +263,15 @@ def test_bad_arguments_exit_2(tmp_path):
                         str(tmp_path / "o.ply"), "--scheduler", "tcp://127.0.0.1:1",
                         "--orient", "sideways"], capture_output=True, text=True, env=ENV)
     assert r.returncode == 2 and "--orient" in r.stderr
+
+
+def test_malformed_single_file_exit_2(cluster, tmp_path):
+    """A malformed line in a single XYZ input: exit 2, the message names the file, no output."""
+    inp, out = tmp_path / "bad.xyz", tmp_path / "o.ply"
+    lines = [f"{x} {x * 2} 0.5" for x in np.linspace(0, 1, 3000)]
+    lines[1700] = "0.1 0.2 abc"
+    inp.write_text("\n".join(lines) + "\n")
+    r = subprocess.run(distributed_cmd(cluster, inp, out, "--method", "pca", "--chunk-bytes",
+                                       "20000"), capture_output=True, text=True, env=ENV)
+    assert r.returncode == 2, r.stderr
+    assert "bad.xyz" in r.stderr and not out.exists()
