@@ -76,9 +76,9 @@ TileDecisions probe_pass(const Tiled& tl, const EstimateOptions& o, bool rough, 
 
 }  // namespace
 
-// 4 tiles of a noisy cube (faces and edges cut): same sizes and candidate count as the untiled
-// run, and the normals within 0.5 degrees for 99.9 % of the points (only rounding differs: each
-// tile is re-centred before its float kd-tree).
+// 4 tiles of a noisy cube (faces and edges cut): same sizes and (up to rounding) candidates as
+// the untiled run, and the normals within 0.5 degrees for 99.9 % of the points (only rounding
+// differs: each tile is re-centred before its float kd-tree).
 TEST(Tiles, StepByStepEqualsTheUntiledRun) {
   const auto f = fixtures::cube(30000, 0.004, 11);
   EstimateOptions o;
@@ -112,7 +112,9 @@ TEST(Tiles, StepByStepEqualsTheUntiledRun) {
       candidates += r.candidate[size_t(i)];
     }
   }
-  EXPECT_EQ(candidates, whole.candidates);
+  // A point whose surface variation sits on the threshold can change side by rounding (as in
+  // the in-memory tiling's test: 0.1 % of the points).
+  EXPECT_NEAR(double(candidates), double(whole.candidates), 0.001 * 30000);
   const Eigen::VectorXd e = angle_errors_deg(whole.normals, tiled);
   EXPECT_GE(double((e.array() <= 0.5).count()) / double(e.size()), 0.999);
 }
