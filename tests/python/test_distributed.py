@@ -172,7 +172,7 @@ def test_worker_killed_mid_run(cluster, tmp_path):
     """One worker process killed (SIGKILL) while the tiles are being estimated: Dask recomputes
     its tasks on the other worker and the output is byte for byte the undisturbed run's."""
     restart_workers(cluster)
-    pts = box_surface(80_000, seed=5)
+    pts = box_surface(60_000, seed=5)
     inp = tmp_path / "c.ply"
     write_ply(inp, pts)
     opts = ("--method", "mfps", "--tile-points", "10000")
