@@ -114,7 +114,7 @@ def main():
             cli_s, cli_mb, _ = timed([str(BUILD / "cli" / "nhnet-cli"), "estimate", str(inp),
                                       str(Path(tmp) / "ref.ply"), "--method", args.method,
                                       "--threads", str(w), "--tile-points",
-                                      str(args.tile_points), "-q"])
+                                      str(args.tile_points), "-q", "--overwrite"])
             d = distributed(w, inp, Path(tmp) / "out.ply", args, tmp)
             rows.append({"workers": w, "cli_s": cli_s, "cli_peak_mb": cli_mb, **d,
                          "points_per_s": args.points / d["wall_s"],
