@@ -124,10 +124,13 @@ class Job:
                                else os.path.abspath(a.output))
         os.makedirs(parent, exist_ok=True)
         self.scratch = tempfile.mkdtemp(prefix=".nhnet-dask-", dir=parent)
+        self.tmp = None
         try:
             return self._passes()
         finally:
             shutil.rmtree(self.scratch, ignore_errors=True)
+            if self.tmp and os.path.exists(self.tmp):  # a failed run leaves no partial output
+                os.remove(self.tmp)
 
     def _scan(self):
         chunks = dio.chunks(self.source)
@@ -270,10 +273,10 @@ class Job:
                                           out, self.scratch, key=f"{self.token}-write-{i}") for i in ok],
                                 "writing"))
         if self.out_kind == "text":
-            tmp = f"{a.output}.tmp-dask{os.getpid()}"
-            c.submit(tasks.join_parts, os.path.join(self.scratch, "parts"), len(ok), tmp,
+            self.tmp = f"{a.output}.tmp-dask{os.getpid()}"
+            c.submit(tasks.join_parts, os.path.join(self.scratch, "parts"), len(ok), self.tmp,
                      key=f"{self.token}-join").result()
-            os.replace(tmp, a.output)
+            os.replace(self.tmp, a.output)
         elif self.out_kind != "folder":
             os.replace(self.tmp, a.output)
         return failed
