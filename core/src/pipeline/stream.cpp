@@ -16,7 +16,8 @@
 //     function of the coordinates), oriented chunk by chunk (keep / viewpoint).
 // Memory: one tile's working set, the plan sample, the probe rows and at most variation_sample
 // floats; disk: 32 bytes per point (tiles) + 12 (results). The tiles on disk are
-// stream_tiles.cpp; the XYZ line rules are read_xyz's (io_detail::XyzLines).
+// stream_tiles.cpp; the XYZ line rules are read_xyz's (io_detail::XyzLines). The per-tile steps
+// (probe, decisions, surface variation, estimate) are tiles.hpp's, shared with nhnet.distributed.
 #include "nhnet/pipeline/stream.hpp"
 
 #include "nhnet/pipeline/tiles.hpp"
