@@ -23,6 +23,9 @@ PKGS=(
   libtbb-dev python3-matplotlib python3-venv
   # python side: bindings, data generation, training
   python3-dev python3-numpy pybind11-dev python3-pip
+  # nhnet.distributed (python -m nhnet.distributed): Dask distributed, Debian's (2022.12) so that
+  # it runs on the same /usr/bin/python3 and numpy the bindings are built for
+  python3-distributed
   # reader fuzzing (scripts/fuzz.sh): clang, its libFuzzer/sanitizer runtimes, its OpenMP
   clang libclang-rt-14-dev libomp-14-dev
   # MeshLab plugin: the stock MeshLab, Qt5 and GLEW headers it compiles against, dpkg-dev to

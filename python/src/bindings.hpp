@@ -103,5 +103,6 @@ void register_metrics(py::module_& m);
 void register_orient(py::module_& m);
 void register_denoise(py::module_& m);
 void register_descriptors(py::module_& m);
+void register_tiles(py::module_& m);
 
 }  // namespace nhnet::python

@@ -14,4 +14,5 @@ PYBIND11_MODULE(_nhnet, m) {
   nhnet::python::register_orient(m);
   nhnet::python::register_denoise(m);
   nhnet::python::register_descriptors(m);
+  nhnet::python::register_tiles(m);
 }

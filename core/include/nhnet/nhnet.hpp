@@ -13,6 +13,7 @@
 #include "nhnet/pipeline/describe.hpp"
 #include "nhnet/pipeline/estimate.hpp"
 #include "nhnet/pipeline/stream.hpp"
+#include "nhnet/pipeline/tiles.hpp"
 #include "nhnet/progress.hpp"
 #include "nhnet/types.hpp"
 #include "nhnet/version.hpp"

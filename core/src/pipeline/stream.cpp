@@ -16,8 +16,11 @@
 //     function of the coordinates), oriented chunk by chunk (keep / viewpoint).
 // Memory: one tile's working set, the plan sample, the probe rows and at most variation_sample
 // floats; disk: 32 bytes per point (tiles) + 12 (results). The tiles on disk are
-// stream_tiles.cpp; the XYZ line rules are read_xyz's (io_detail::XyzLines).
+// stream_tiles.cpp; the XYZ line rules are read_xyz's (io_detail::XyzLines). The per-tile steps
+// (probe, decisions, surface variation, estimate) are tiles.hpp's, shared with nhnet.distributed.
 #include "nhnet/pipeline/stream.hpp"
+
+#include "nhnet/pipeline/tiles.hpp"
 
 #include "io/detail.hpp"
 #include "nhnet/errors.hpp"
@@ -298,10 +301,10 @@ Scan scan_input(XyzStream& in, const StreamOptions& options, detail::Progress& t
 /// The tiles' frame: centred on the box, scaled by a power of two into [-2, 2) (see
 /// normalise()).
 Frame frame_of(const Scan& scan) {
+  const TileFrame f = tile_frame(scan.lo, scan.hi);
   Frame frame;
-  frame.centre = (scan.lo + scan.hi) / 2;
-  const double half = ((scan.hi - scan.lo) / 2).maxCoeff();
-  if (half > 0 && std::isfinite(half)) frame.scale = std::ldexp(1.0, -std::ilogb(half));
+  frame.centre = f.centre;
+  frame.scale = f.scale;
   return frame;
 }
 
@@ -356,99 +359,48 @@ struct TileRun {
   detail::Progress& top;
 };
 
-/// The noise probe's rows over the tiles: squared distances and plane residuals (frame units).
-struct ProbeRows {
-  std::vector<std::vector<float>> d2;
-  std::vector<double> residual;
-  /// Neighbours per row: the fewest of any probed tile so far (kept from pass to pass).
-  int k = 0;
-};
-
-/// Probes tile t (with a halo): every step-th own point; without a halo only those whose
-/// neighbourhood lies inside the tile's cell. False when the tile is too small to probe.
-bool probe_tile(const TileRun& tr, size_t t, int64_t step, double halo, ProbeRows& out) {
-  if (tr.tiles.count(t) < 3) return false;
-  const TilePoints tp = tr.tiles.load(t, halo);
-  std::vector<std::string> ignored;
-  const detail::Canonical canon = detail::canonical_points(tp.pts, ignored);
-  const int k = int(std::min<Eigen::Index>(kNoiseProbeK, canon.pts.rows()));
-  if (k < 4) return false;
-  out.k = out.k ? std::min(out.k, k) : k;
-  std::vector<int64_t> rows;
-  int64_t own = 0;
-  for (Eigen::Index i = 0; i < canon.pts.rows(); ++i)
-    if (size_t(canon.rows[size_t(i)]) < tp.own && own++ % step == 0) rows.push_back(i);
-  const Neighbors tree(canon.pts);
-  IndexMatrix idx;
-  DistanceMatrix d2;
-  tree.knn_rows(k, rows, idx, &d2, RunContext{tr.run.threads, {}});
-  const Eigen::RowVector3d& clo = tr.plan.cell_lo[t];
-  const Eigen::RowVector3d& chi = tr.plan.cell_hi[t];
-  for (size_t r = 0; r < rows.size(); ++r) {
-    if (halo == 0) {
-      const Eigen::RowVector3d p = tp.pts.row(canon.rows[size_t(rows[r])]);
-      const double room = std::min((p - clo).minCoeff(), (chi - p).minCoeff());
-      const double reach = std::sqrt(double(d2(Eigen::Index(r), k - 1))) * canon.unit;
-      if (!(reach < room)) continue;  // the neighbourhood may cross into the next tile
-    }
-    Eigen::Vector3d ev;
-    fit_plane(canon.pts, &idx(Eigen::Index(r), 0), k, nullptr, &ev);
-    out.residual.push_back(std::sqrt(std::max(0.0, ev[0])) * canon.unit);
-    std::vector<float> row(static_cast<size_t>(k));
-    for (int c = 0; c < k; ++c)
-      row[size_t(c)] = float(double(d2(Eigen::Index(r), c)) * canon.unit * canon.unit);
-    out.d2.push_back(std::move(row));
-  }
-  return true;
-}
-
-/// One probe pass over every tile (progress from `begin` to `end` of the stage): the probe of
-/// the rows it collects.
-detail::Probe probe_pass(const TileRun& tr, ProbeRows& rows, int64_t step, double halo,
-                         double begin, double end) {
-  rows.d2.clear();
-  rows.residual.clear();
+/// One probe pass over every tile (progress from `begin` to `end` of the stage): the whole
+/// cloud's decisions from the rows it collects (probe_tile, tiles.hpp).
+TileDecisions probe_pass(const TileRun& tr, const EstimateOptions& eo, int64_t finite, bool rough,
+                         double halo, double begin, double end) {
   const size_t ntiles = tr.plan.tiles();
+  std::vector<TileProbeRows> rows;
   for (size_t t = 0; t < ntiles; ++t) {
-    if (!probe_tile(tr, t, step, halo, rows)) continue;
+    if (tr.tiles.count(t) < 3) continue;
+    const TilePoints tp = tr.tiles.load(t, halo);
+    rows.push_back(probe_tile(tp.pts, int64_t(tp.own), probe_step(finite, rough), halo,
+                              tr.plan.cell_lo[t], tr.plan.cell_hi[t], tr.run.threads));
     tr.top.report(begin + (end - begin) * double(t + 1) / double(ntiles));
     tr.top.throw_if_cancelled();
   }
-  if (rows.d2.empty())
-    throw UnprocessableInput(tr.input + ": no point has a complete noise-probe neighbourhood");
-  DistanceMatrix d2(Eigen::Index(rows.d2.size()), rows.k);
-  for (size_t r = 0; r < rows.d2.size(); ++r)
-    for (int c = 0; c < rows.k; ++c) d2(Eigen::Index(r), c) = rows.d2[r][size_t(c)];
-  rows.d2.clear();
-  return detail::probe_from_rows(d2, Eigen::Map<const Eigen::VectorXd>(
-                                         rows.residual.data(), Eigen::Index(rows.residual.size())));
+  try {
+    return decide_tiles(rows, eo, finite);
+  } catch (const UnprocessableInput& e) {
+    throw UnprocessableInput(tr.input + ": " + e.what());
+  }
 }
 
-/// The whole cloud's noise probe: every probe_step-th own point of each tile (the in-memory run
-/// probes every point of clouds up to kProbeAllPoints, an evenly spaced subset of larger ones),
-/// with a halo of twice a rough probe radius so that the neighbourhoods are complete. The rough
-/// radius comes from a sparse first pass on the tiles' own points, keeping only points whose
-/// neighbourhood lies inside their tile's cell.
-detail::Probe noise_probe(const TileRun& tr, int64_t finite) {
+/// The whole cloud's noise probe and decisions: every probe_step-th own point of each tile (the
+/// in-memory run probes every point of clouds up to kProbeAllPoints, an evenly spaced subset of
+/// larger ones), with a halo of twice a rough probe radius so that the neighbourhoods are
+/// complete. The rough radius comes from a sparse first pass on the tiles' own points, keeping
+/// only points whose neighbourhood lies inside their tile's cell.
+TileDecisions noise_probe(const TileRun& tr, const EstimateOptions& eo, int64_t finite) {
   if (tr.run.progress) tr.top.stage("noise probe", 0.1, 0.15);
-  ProbeRows rows;
-  const detail::Probe rough = probe_pass(tr, rows, std::max<int64_t>(1, finite / 20000), 0, 0, 0.2);
-  return probe_pass(tr, rows, std::max<int64_t>(1, finite / kProbeAllPoints), 2 * rough.far_radius,
-                    0.2, 1);
+  const TileDecisions rough = probe_pass(tr, eo, finite, true, 0, 0, 0.2);
+  return probe_pass(tr, eo, finite, false, 2 * rough.far_radius, 0.2, 1);
 }
 
 /// What every tile runs with: the options (the model loaded once) and the whole cloud's
 /// decisions.
 struct TileSetup {
   EstimateOptions options;
-  detail::TileOverrides overrides;
+  TileDecisions decisions;
 };
 
-/// The tiles' options and the whole cloud's noise level and spacing (frame units).
-TileSetup tile_setup(const EstimateOptions& eo, const detail::Probe& probe) {
-  TileSetup setup{eo, {}};
-  setup.overrides.noise_ratio = probe.noise.ratio;
-  setup.overrides.spacing = probe.noise.spacing;  // frame units, as the tiles' coordinates
+/// The tiles' options (the NH-Net model loaded once) and the whole cloud's decisions.
+TileSetup tile_setup(const EstimateOptions& eo, const TileDecisions& decisions) {
+  TileSetup setup{eo, decisions};
   if (eo.method == Method::NhNet) setup.options.model.loaded = model_for(eo.model, eo.run.threads);
   return setup;
 }
@@ -458,38 +410,25 @@ double variation_span(Method method) { return method == Method::Pca ? 0.0 : 0.15
 
 /// (MFPS, NH-Net) The candidate threshold from the whole cloud's surface variations at the
 /// smooth size: each tile's own points with a halo, an evenly spaced subset of at most
-/// variation_sample values.
-double variation_threshold(const TileRun& tr, const StreamOptions& options,
-                           const detail::TileSizes& sizes, int64_t finite) {
+/// variation_sample values (tile_variation, tiles.hpp).
+double tiles_variation_threshold(const TileRun& tr, const StreamOptions& options,
+                                 const TileDecisions& d, int64_t finite) {
   const EstimateOptions& eo = options.estimate;
   if (tr.run.progress) tr.top.stage("surface variation", 0.15, 0.15 + variation_span(eo.method));
-  const int64_t vstep =
-      std::max<int64_t>(1, (finite + options.variation_sample - 1) / options.variation_sample);
-  const ScaleChoice& choice = sizes.choice;
+  const int64_t vstep = variation_step(finite, options.variation_sample);
   const size_t ntiles = tr.plan.tiles();
   std::vector<double> variation;
-  int64_t seen = 0;
   for (size_t t = 0; t < ntiles; ++t) {
     if (tr.tiles.count(t) == 0) continue;
-    const TilePoints tp = tr.tiles.load(t, eo.tiles.halo * sizes.radius(choice.k_smooth));
-    std::vector<std::string> ignored;
-    const detail::Canonical canon = detail::canonical_points(tp.pts, ignored);
-    const int k = int(std::min<Eigen::Index>(choice.k_smooth, canon.pts.rows()));
-    IndexMatrix knn;
-    Neighbors(canon.pts).knn_all(k, knn, nullptr, RunContext{tr.run.threads, {}});
-    const PcaResult pca =
-        pca_normals(canon.pts, knn, PcaOptions{k}, RunContext{tr.run.threads, {}});
-    // Own points only, one value per distinct position (the in-memory run's canonical points).
-    for (Eigen::Index c = 0; c < canon.pts.rows(); ++c) {
-      if (size_t(canon.rows[size_t(c)]) >= tp.own) continue;
-      if (seen++ % vstep == 0) variation.push_back(pca.variation[c]);
-    }
+    const TilePoints tp = tr.tiles.load(t, d.variation_halo);
+    const Eigen::VectorXd v =
+        tile_variation(tp.pts, int64_t(tp.own), d.k_smooth, vstep, tr.run.threads);
+    variation.insert(variation.end(), v.data(), v.data() + v.size());
     tr.top.report(double(t + 1) / double(ntiles));
     tr.top.throw_if_cancelled();
   }
-  return detect_feature_candidates(
-             Eigen::Map<const Eigen::VectorXd>(variation.data(), Eigen::Index(variation.size())))
-      .absolute_threshold;
+  return variation_threshold(
+      Eigen::Map<const Eigen::VectorXd>(variation.data(), Eigen::Index(variation.size())));
 }
 
 /// Writes a tile's own points' normals (NaN where estimation failed), in input order, to its
@@ -509,10 +448,10 @@ int64_t write_tile_result(const fs::path& file, size_t own, const EstimateResult
   return degenerate;
 }
 
-/// The estimator on each tile plus its halo (`halo`, frame units) with `setup`; the own points'
+/// The estimator on each tile plus its halo (setup.decisions.halo, frame units); the own points'
 /// normals go to the tile's result file. `res` takes the first tile's sizes and device, every
 /// tile's other warnings once, and one count of the degenerate points.
-void estimate_tiles(const TileRun& tr, TileSetup setup, double halo, StreamResult& res) {
+void estimate_tiles(const TileRun& tr, TileSetup setup, StreamResult& res) {
   const size_t ntiles = tr.plan.tiles();
   EstimateOptions& o = setup.options;
   const double begin = 0.15 + variation_span(o.method), span = (0.95 - begin) / double(ntiles);
@@ -521,9 +460,9 @@ void estimate_tiles(const TileRun& tr, TileSetup setup, double halo, StreamResul
   bool first_tile = true;
   for (size_t t = 0; t < ntiles; ++t) {
     if (tr.tiles.count(t) == 0) continue;
-    const TilePoints tp = tr.tiles.load(t, halo);
+    const TilePoints tp = tr.tiles.load(t, setup.decisions.halo);
     o.run = detail::narrow(tr.run, begin + span * double(t), begin + span * double(t + 1));
-    const EstimateResult est = detail::estimate_cloud(tp.pts, o, setup.overrides);
+    const EstimateResult est = estimate_tile(tp.pts, o, setup.decisions);
     degenerate += write_tile_result(tr.tiles.result_file(t), tp.own, est, res);
     if (first_tile) {
       res.k_used = est.k_used;
@@ -708,18 +647,18 @@ StreamResult estimate_stream(const std::string& input, const std::string& output
   bin_points(in, frame, plan, tiles, eo.run, top);
   // The whole cloud's decisions, then each tile's normals to its result file.
   const TileRun tr{input, frame, plan, tiles, eo.run, top};
-  const detail::Probe probe = noise_probe(tr, scan.finite);
-  const detail::TileSizes sizes = detail::tile_sizes(probe, eo, scan.finite);
-  TileSetup setup = tile_setup(eo, probe);
+  TileSetup setup = tile_setup(eo, noise_probe(tr, eo, scan.finite));
   if (eo.method != Method::Pca)
-    setup.overrides.variation_threshold = variation_threshold(tr, options, sizes, scan.finite);
-  estimate_tiles(tr, std::move(setup), eo.tiles.halo * sizes.radius(sizes.kneed), res);
+    setup.decisions.variation_threshold =
+        tiles_variation_threshold(tr, options, setup.decisions, scan.finite);
+  const TileDecisions decisions = setup.decisions;
+  estimate_tiles(tr, std::move(setup), res);
   // Pass 3: the output in input order, renamed over the target when complete.
   write_output(tr, in, file, options, ply, scan.fits_float, res);
   file.commit();
   res.tiles = int(plan.tiles());
-  res.noise_ratio = probe.noise.ratio;
-  res.spacing = probe.noise.spacing / frame.scale;
+  res.noise_ratio = decisions.noise_ratio;
+  res.spacing = decisions.spacing / frame.scale;
   if (eo.run.progress) {
     top.stage("done", 1, 1);
     top.throw_if_cancelled();
