@@ -28,14 +28,14 @@ void warn_unoriented(Reporter& rep, const nhnet::OrientOptions& opt, const nhnet
 
 namespace {
 
-/// Summary-line text: "mst (no sensor in the file: MST; 2 parts, 0 unoriented, 1234 flipped)",
-/// "keep (input normals; 12 flipped)", "none"; the source only when auto chose the mode.
+/// Summary-line text: "mst (2 parts, 0 unoriented, 1234 flipped; no sensor in the file: MST)",
+/// "keep (12 flipped; input normals)", "none"; the source only when auto chose the mode.
 std::string orient_summary(const nhnet::OrientOptions& opt, const std::string& source,
                            const nhnet::OrientResult& r) {
   std::string s = nhnet::to_string(opt.mode);
   const std::string why = source.empty() || source == "requested" ? "" : source;
   if (opt.mode == nhnet::OrientMode::None) return why.empty() ? s : s + " (" + why + ")";
-  s += " (" + (why.empty() ? why : why + "; ");
+  s += " (";
   if (opt.mode == nhnet::OrientMode::Mst || opt.mode == nhnet::OrientMode::Up)
     s += std::to_string(r.components) + (r.components == 1 ? " part, " : " parts, ") +
          std::to_string(r.completed) + " completed, ";
@@ -45,7 +45,7 @@ std::string orient_summary(const nhnet::OrientOptions& opt, const std::string& s
   if (opt.mode == nhnet::OrientMode::Mst && opt.inside_outside)
     s += r.voxel > 0 ? ", " + std::to_string(r.inside_outside_votes) + " sided by the flood fill"
                      : ", open: the tree alone";
-  return s + ")";
+  return s + (why.empty() ? ")" : "; " + why + ")");
 }
 
 /// JSON members: "orient": "...", "flipped": N, "unoriented": N, "components": N, ...

@@ -44,8 +44,9 @@ Sensor sensor_from_axes(const std::string& path, const std::array<double, 3>& t,
   if (!finite(t)) input_error(path, source + ": the sensor position is not finite");
   const double off = (axes.transpose() * axes - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
   if (!axes.allFinite() || !(off < 1e-3) || !(det3(axes) > 0))
-    input_error(path, source + ": the sensor axes are not a rotation (not orthonormal, "
-                               "left-handed or not finite)");
+    input_error(path, source +
+                          ": the sensor axes are not a rotation (not orthonormal, "
+                          "left-handed or not finite)");
   Sensor s;
   s.position = Eigen::Vector3d(t[0], t[1], t[2]);
   s.rotation = axes;
