@@ -61,7 +61,7 @@ def _hit_rectangle(d, rect):
     u, w = [k for k in range(3) if k != axis]
     with np.errstate(divide="ignore", invalid="ignore"):
         t = at / d[:, axis]
-    p = d * t[:, None]
+        p = d * t[:, None]
     ok = (t > 0) & (p[:, u] >= a0) & (p[:, u] <= a1) & (p[:, w] >= b0) & (p[:, w] <= b1)
     return np.where(ok, t, np.inf)
 
