@@ -201,3 +201,33 @@ TEST(OrientAuto, DefaultViewpointCountsOnlyOnAnOrganizedCloud) {
   }
   fs::remove(path);
 }
+
+TEST(OrientAuto, AsciiPlyCameraAndObjInfoGrid) {
+  const fs::path path = temp_file(".ply");
+  const std::string head =
+      "ply\nformat ascii 1.0\nobj_info num_cols 2\nobj_info num_rows 2\nelement vertex 4\n"
+      "property float x\nproperty float y\nproperty float z\n";
+  const std::string rows = "0 0 1\n1 0 1\n0 1 1\nnan nan nan\n";
+  std::ofstream(path) << head << "end_header\n" << rows;
+  Cloud r = read_cloud(path.string());
+  EXPECT_TRUE(r.organized());
+  EXPECT_TRUE(r.sensors.empty());
+  OrientOptions req;
+  req.mode = OrientMode::Auto;
+  EXPECT_EQ(resolve_orientation(r, req).options.mode, OrientMode::Viewpoint);  // the origin
+  // PCL's camera element (ascii) with the position and the rows x_axis, y_axis of a turn about
+  // z by 90 degrees; the missing z_axis row is the identity's.
+  std::ofstream(path) << head
+                      << "element camera 1\nproperty float view_px\nproperty float view_py\n"
+                         "property float view_pz\nproperty float x_axisx\nproperty float x_axisy\n"
+                         "property float x_axisz\nproperty float y_axisx\nproperty float y_axisy\n"
+                         "property float y_axisz\nend_header\n"
+                      << rows << "1 2 3 0 -1 0 1 0 0\n";
+  r = read_cloud(path.string());
+  ASSERT_EQ(r.sensors.size(), 1u);
+  EXPECT_EQ(r.sensors[0].position, Eigen::Vector3d(1, 2, 3));
+  EXPECT_EQ(r.sensors[0].rotation(0, 1), -1);
+  EXPECT_EQ(r.sensors[0].rotation(1, 0), 1);
+  EXPECT_EQ(r.sensors[0].source, "PLY camera");
+  fs::remove(path);
+}

@@ -130,3 +130,12 @@ def test_python_default_method_is_the_cli_default(tmp_path):
     assert js["method"] in ("nhnet", "mfps")
     np.testing.assert_allclose(r.normals, nhnet.read(str(tmp_path / "o.xyzn")).normals,
                                atol=1e-5)
+
+
+def test_report_names_the_orientation_source(tmp_path):
+    write_scan(tmp_path, "scan", 32, 24, False)
+    report = tmp_path / "r.json"
+    estimate(tmp_path / "scan.pcd", tmp_path / "o.ply", "--method", "pca", "--report", str(report))
+    f = json.loads(report.read_text())["files"][0]
+    assert f["orient"] == "viewpoint"
+    assert f["orient_source"] == "sensor from PCD VIEWPOINT at (0, 0, 0)"
