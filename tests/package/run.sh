@@ -59,7 +59,8 @@ PY
 
 echo "== installed nhnet-cli"
 # --orient none: the library examples return unoriented normals; the CLI orients by default.
-# --method mfps: the library's default method (it needs no model file); the CLI's is nhnet.
+# --method mfps: the C++ library's default method (it needs no model file) and the README's
+# Python example's; the CLI's and Python's default_method() is nhnet where the model is there.
 "$prefix/bin/nhnet-cli" estimate "$tmp/in.pcd" "$tmp/cli.xyz" --quiet --orient none --method mfps
 
 echo "== outside CMake project from the README"
