@@ -431,6 +431,7 @@ void NhnetFilterPlugin::estimate(MeshModel& mm, const RichParameterList& par,
   nhnet::Cloud cloud;
   cloud.points = std::move(v.points);
   if (has_vertex_normals(mm.cm)) cloud.normals = std::move(v.normals);
+  v.normals = nhnet::Normals();  // zeros otherwise: not kept through the run
   add_shot_sensor(mm.cm, cloud);
   nhnet::OrientPlan plan = orientPlan(par, cloud);
   const bool orienting = plan.options.mode != nhnet::OrientMode::None;

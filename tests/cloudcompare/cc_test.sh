@@ -175,7 +175,7 @@ case_orient_keep() {
   "$PY" "$COMPARE" gt.ply "$GT" --signed --max-deg 0.25 >/dev/null || fail "CloudCompare did not read the normals of $GT"
   cc -O gt.ply -NHNET_NORMALS -METHOD pca -ORIENT keep -SAVE_CLOUDS FILE keep.ply
   expect_rc 0
-  log_has "orient keep ("
+  log_has "orient keep from requested ("
   # Signed agreement: every valid normal points to the same side as the input's (< 90 degrees).
   "$PY" "$COMPARE" keep.ply gt.ply --signed --max-deg 90 ||
     fail "orient keep left normals pointing against the input's"
@@ -202,15 +202,15 @@ print(f"{sys.argv[2]}: {bad} of {len(s)} normals not pointing {side}")
 sys.exit(1 if bad else 0)'
   cc -O sphere.xyz -NHNET_NORMALS -METHOD pca -ORIENT mst -SAVE_CLOUDS FILE mst.ply
   expect_rc 0
-  log_has "orient mst ("
+  log_has "orient mst from requested ("
   "$PY" -c "$check" "$COMPARE" mst.ply 1 || fail "mst did not orient the sphere outward"
   cc -O sphere.xyz -NHNET_NORMALS -METHOD pca -SAVE_CLOUDS FILE auto.ply
   expect_rc 0
-  log_has "orient mst ("
+  log_has "orient mst from no sensor in the file: MST ("
   "$PY" -c "$check" "$COMPARE" auto.ply 1 || fail "the default orientation is not outward"
   cc -O sphere.xyz -NHNET_NORMALS -METHOD pca -ORIENT viewpoint 5 -2 1 -SAVE_CLOUDS FILE vp.ply
   expect_rc 0
-  log_has "orient viewpoint ("
+  log_has "orient viewpoint from requested ("
   "$PY" -c "$check" "$COMPARE" vp.ply -1 || fail "viewpoint did not turn the normals to the centre"
 }
 
@@ -343,10 +343,10 @@ LARGE_N=10000000
 
 # A 10M-point cloud (binary PLY, 120 MB) through -NHNET_NORMALS to the end: PCA (the complete
 # default NH-Net would take ~20 min on CI's 2 cores) and viewpoint orientation (O(N); MST is
-# the orientation test's business), progress on the console. Peak memory: measured 2.3 GiB
-# (CloudCompare's cloud 0.2 GB, the plugin's double copy of the points 0.24 GB, the core's
-# tiles of 1M points); the bound of 4 GiB is 1/6 of this 24 GiB machine and fails if the run
-# holds a few more copies of the cloud (0.24 GB each) or stops tiling.
+# the orientation test's business), progress on the console. Peak memory: measured 1659 MiB
+# (CloudCompare's cloud 0.16 GB, the plugin's double copies of points and normals 0.48 GB, the
+# core's tiles of 1M points); the bound of 3 GiB, an eighth of this 24 GiB machine, fails if
+# the run holds about six more double copies of the cloud (0.24 GB each) or stops tiling.
 case_large_cloud() {
   "$PY" "$MAKE" big big.ply "$LARGE_N"
   cc_timed -O big.ply -NHNET_NORMALS -METHOD pca -ORIENT viewpoint 50 50 100
@@ -356,13 +356,14 @@ case_large_cloud() {
   log_has "[NH-Net] 50 %"
   local peak
   peak=$(peak_mib)
-  ((peak < 4096)) || fail "peak memory $peak MiB (want < 4096)"
+  ((peak < 3072)) || fail "peak memory $peak MiB (want < 3072)"
 }
 
 # The same cloud, cancelled once the progress reaches 5 % (NHNET_PLUGIN_CANCEL_AT, the test hook
 # of the plugin's cancel path, which the GUI's Cancel button takes too): the command fails with
-# the cancel message, nothing is saved, and the core stopped within 2 s of the cancel (measured
-# 0.0x s: the core checks its callback every block of points).
+# the cancel message, nothing is saved, and the core stopped within 3 s of the cancel (measured
+# 0.66 s in MeshLab's same test with this machine's 2 cores shared by ~20 busy processes; a core
+# that ignored the cancel would run on for a minute or more).
 case_large_cancel() {
   "$PY" "$MAKE" big big.ply "$LARGE_N"
   CC_ENV="NHNET_PLUGIN_CANCEL_AT=0.05" cc_timed -O big.ply -NHNET_NORMALS -METHOD pca \
@@ -373,7 +374,8 @@ case_large_cancel() {
   local delay
   delay=$(sed -n 's/.*stopped \([0-9.]*\) s after the cancel.*/\1/p' log.txt)
   [[ -n $delay ]] || fail "no 'stopped ... after the cancel' line"
-  awk -v d="$delay" 'BEGIN { exit !(d < 2) }' || fail "stopped $delay s after the cancel (want < 2)"
+  echo "stopped $delay s after the cancel"
+  awk -v d="$delay" 'BEGIN { exit !(d < 3) }' || fail "stopped $delay s after the cancel (want < 3)"
 }
 
 "case_$CASE"

@@ -8,19 +8,19 @@ mls_timed() { /usr/bin/time -v -o time.txt "$T/ml/meshlabserver" "$@" >"$T/last.
 
 # Complete run: PCA (the complete default NH-Net would take ~20 min on CI's 2 cores) and
 # viewpoint orientation (O(N)), no output file (writing 10M points is not the plugin's part).
-# Peak memory: measured 3.1 GiB (MeshLab's own mesh of 10M vertices, ~1.5 GB, the plugin's
-# double copies of points and normals, 0.5 GB, the core's tiles of 1M points); the bound of
-# 5 GiB is a fifth of this 24 GiB machine and fails if the run holds a few more copies of the
+# Peak memory: measured 2100 MiB (MeshLab's own mesh of 10M vertices, the plugin's double
+# copies of points and normals, 0.48 GB, the core's tiles of 1M points); the bound of 4 GiB, a
+# sixth of this 24 GiB machine, fails if the run holds about eight more double copies of the
 # cloud (0.24 GB each) or stops tiling. Progress: meshlabserver prints the stage names the
 # plugin passes to MeshLab's callback.
 estimate_mlx 1 0 auto 1 "" 'x="50" y="50" z="100"' | script >big.mlx
 if mls_timed -i big.ply -s big.mlx; then
   peak=$(peak_mib)
   if grep -q "NH-Net: normals of $LARGE_N vertices (0 failed), method pca" last.log &&
-    grep -q "neighbours" last.log && ((peak < 5120)); then
-    pass "$LARGE_N points, complete (PCA), progress shown, peak $peak MiB (< 5120)"
+    grep -q "neighbours" last.log && ((peak < 4096)); then
+    pass "$LARGE_N points, complete (PCA), progress shown, peak $peak MiB (< 4096)"
   else
-    fail "$LARGE_N points: peak $peak MiB (want < 5120), log:"; tail -c 2000 last.log
+    fail "$LARGE_N points: peak $peak MiB (want < 4096), log:"; tail -c 2000 last.log
   fi
 else
   fail "$LARGE_N points: meshlabserver exited $?"; tail -c 2000 last.log
@@ -29,7 +29,8 @@ fi
 # Cancelled once the progress reaches 5 % (NHNET_PLUGIN_CANCEL_AT, the test hook of the
 # plugin's cancel path, which the GUI's Cancel button and a false from MeshLab's callback take
 # too): meshlabserver's failed-filter exit, the cancel message, no output, and the core stopped
-# within 2 s of the cancel (measured 0.0x s).
+# within 3 s of the cancel (measured 0.66 s with this machine's 2 cores shared by ~20 busy
+# processes; a core that ignored the cancel would run on for a minute or more).
 rm -f cancel.ply
 set +e
 NHNET_PLUGIN_CANCEL_AT=0.05 mls_timed -i big.ply -o cancel.ply -s big.mlx
@@ -38,9 +39,9 @@ set -e
 delay=$(sed -n 's/.*stopped \([0-9.]*\) s after the cancel.*/\1/p' last.log | head -n 1)
 if [[ $rc == 255 && ! -e cancel.ply && -n $delay ]] &&
   grep -q "NH-Net: cancelled; the layer was left unchanged" last.log &&
-  awk -v d="$delay" 'BEGIN { exit !(d < 2) }'; then
+  awk -v d="$delay" 'BEGIN { exit !(d < 3) }'; then
   pass "cancel: exit $rc, stopped $delay s after the cancel, nothing written"
 else
-  fail "cancel: exit $rc (want 255), stopped '$delay' s after (want < 2), output $(ls cancel.ply 2>/dev/null)"
+  fail "cancel: exit $rc (want 255), stopped '$delay' s after (want < 3), output $(ls cancel.ply 2>/dev/null)"
   tail -c 2000 last.log
 fi

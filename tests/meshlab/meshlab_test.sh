@@ -128,10 +128,11 @@ ml_run() {
 # normals or camera), so even the signs agree: the same deterministic core on the same floats
 # leaves the rounding of the normals to float32 (measured 0.0000 degrees, signed); 0.01 degrees
 # is strict, a different method or one flipped normal is far beyond it.
+"$CLI" estimate in.ply cli_def.ply --quiet --overwrite --report cli_def.json
+want=$(sed -nE 's/.*"method": *"([a-z]+)".*/\1/p' cli_def.json | head -n 1)
+case $want in mfps) default_index=0 ;; pca) default_index=1 ;; *) default_index=2 ;; esac
 if ml_run in.ply ml_def.ply; then
   grep 'NH-Net:' last.log || true
-  "$CLI" estimate in.ply cli_def.ply --quiet --overwrite --report cli_def.json
-  want=$(sed -nE 's/.*"method": *"([a-z]+)".*/\1/p' cli_def.json | head -n 1)
   if grep -q "method $want," last.log && grep -q "orientation mst from no sensor in the file" last.log &&
     /usr/bin/python3 "$SRC/tests/cloudcompare/compare_normals.py" ml_def.ply cli_def.ply --signed --max-deg 0.01; then
     pass "defaults: method $want, orientation auto (MST) and the normals of nhnet-cli with no flags"
@@ -253,10 +254,11 @@ if mls -i cube.ply -o cube_dn.ply -m vn sa -s denoise.mlx; then
 else
   fail "denoise exited $?"; cat last.log
 fi
-# The same with the normals from the estimate filter run before ('current vertex normals'):
-# the same normals, only rounded to MeshLab's float32 in between, so the same points up to
-# float rounding (1e-5 is ~100 float32 ulps at the cube's scale of 1).
-{ estimate_mlx 0 0 auto 3; denoise_mlx 0; } | script >chain.mlx
+# The same with the normals from the estimate filter run before with the default method, which
+# 'estimate first' uses ('current vertex normals'): the same normals, only rounded to MeshLab's
+# float32 in between, so the same points up to float rounding (1e-5 is ~100 float32 ulps at the
+# cube's scale of 1).
+{ estimate_mlx "$default_index" 0 auto 3; denoise_mlx 0; } | script >chain.mlx
 if mls -i cube.ply -o cube_chain.ply -m vn sa -s chain.mlx; then
   diff=$(paste <(sed '1,/^end_header/d' cube_dn.ply) <(sed '1,/^end_header/d' cube_chain.ply) |
     awk 'function abs(v) { return v < 0 ? -v : v }

@@ -21,7 +21,8 @@ T* load(const char* path) {
   QPluginLoader loader(path);
   T* p = qobject_cast<T*>(loader.instance());
   if (p == nullptr)
-    std::fprintf(stderr, "ml_run: cannot load %s: %s\n", path, qUtf8Printable(loader.errorString()));
+    std::fprintf(stderr, "ml_run: cannot load %s: %s\n", path,
+                 qUtf8Printable(loader.errorString()));
   return p;
 }
 
