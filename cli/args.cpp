@@ -93,7 +93,8 @@ double parse_double(const std::string& option, const std::string& text, double a
 
 nhnet::OrientOptions parse_orient(const std::string& text) {
   const std::string usage =
-      "--orient must be keep, none, mst, mst:K (K >= 2) or viewpoint X Y Z, got " + quoted(text);
+      "--orient must be auto, keep, none, up, mst, mst:K (K >= 2) or viewpoint X Y Z, got " +
+      quoted(text);
   const size_t colon = text.find(':');
   const std::string mode = text.substr(0, colon);
   const std::string values = colon == std::string::npos ? "" : text.substr(colon + 1);
@@ -113,8 +114,8 @@ nhnet::OrientOptions parse_orient(const std::string& text) {
     for (int d = 0; d < 3; ++d)
       opt.viewpoint[d] = parse_double("--orient viewpoint " + std::string(1, char('X' + d)),
                                       xyz[size_t(d)], -HUGE_VAL);
-  } else if (colon != std::string::npos) {
-    throw nhnet::InvalidOptions(usage);
+  } else if (colon != std::string::npos || opt.mode == nhnet::OrientMode::Sensors) {
+    throw nhnet::InvalidOptions(usage);  // sensors: only from the file, through auto
   }
   return opt;
 }

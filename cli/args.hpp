@@ -29,7 +29,8 @@ std::vector<int> parse_scales(const std::string& text);
 std::string scales_text(const std::vector<int>& scales);
 /// Parses a whole string as a finite decimal number > `above` (strictly).
 double parse_double(const std::string& option, const std::string& text, double above);
-/// The value of --orient: "keep", "none", "mst", "mst:K" (K >= 2), "viewpoint:X,Y,Z".
+/// The value of --orient: "auto", "keep", "none", "up", "mst", "mst:K" (K >= 2),
+/// "viewpoint:X,Y,Z".
 nhnet::OrientOptions parse_orient(const std::string& text);
 /// argv as CLI11 wants it (reversed), with "--orient viewpoint X Y Z" joined into the single
 /// value "--orient=viewpoint:X,Y,Z", so --orient takes exactly one value and can never swallow

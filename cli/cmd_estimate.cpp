@@ -15,6 +15,7 @@
 #include "nhnet/errors.hpp"
 #include "nhnet/io/cloud.hpp"
 #include "nhnet/learned/nhnet_model.hpp"
+#include "nhnet/orient/auto.hpp"
 #include "nhnet/orient/orient.hpp"
 #include "nhnet/pipeline/estimate.hpp"
 #include "nhnet/pipeline/stream.hpp"
@@ -96,18 +97,16 @@ void estimate_stream(const EstimateArgs& a, const Setup& st, Outcome& o) {
   so.orient = st.orient;
   so.temp_dir = a.temp_dir;
   so.ascii = a.output.ascii;
-  if (a.orient.empty()) {  // keep when the input has normals, else none (mst needs the whole cloud)
-    so.orient.mode = nhnet::OrientMode::Keep;
-    so.warn_keep_without_normals = false;
-  }
   so.estimate.run.progress = rep.callback(0.0, 1.0);
   const nhnet::StreamResult res = nhnet::estimate_stream(o.in, o.out, so);
   rep.clear();
   for (const auto& w : res.warnings) rep.warn(w);
   throw_if_interrupted();
   nhnet::OrientOptions shown = so.orient;
-  shown.mode = res.orient_mode;  // keep falls back to none when the input has no normals
+  shown.mode = res.orient_mode;  // auto resolved; keep falls back to none without input normals
   warn_unoriented(rep, shown, res.orient);
+  o.orient = nhnet::to_string(shown.mode);
+  o.orient_source = res.orient_source;
   o.points = res.points;
   o.failed = res.failed;
   o.seconds = rep.elapsed();
@@ -116,22 +115,22 @@ void estimate_stream(const EstimateArgs& a, const Setup& st, Outcome& o) {
   sum.streamed = true;
   sum.warnings = res.warnings.size();
   sum.orient = shown;
+  sum.orient_source = res.orient_source;
   sum.orient_result = res.orient;
   print_estimate_summary(a.output, sum);
 }
 
-/// The orientation of one cloud: --orient, or by default keep when it has normals, else mst;
-/// keep without normals warns and becomes none.
-nhnet::OrientOptions orientation_for(const EstimateArgs& a, const Setup& st, Reporter& rep,
-                                     const std::string& in, const nhnet::Cloud& cloud) {
-  nhnet::OrientOptions orient = st.orient;
-  if (a.orient.empty())
-    orient.mode = cloud.has_normals() ? nhnet::OrientMode::Keep : nhnet::OrientMode::Mst;
-  if (orient.mode == nhnet::OrientMode::Keep && !cloud.has_normals()) {
+/// The orientation of one cloud: --orient, by default auto (resolve_orientation: the input's
+/// normals, the file's sensor, airborne up, else mst); keep without normals warns and becomes
+/// none.
+nhnet::OrientPlan orientation_for(const Setup& st, Reporter& rep, const std::string& in,
+                                  const nhnet::Cloud& cloud) {
+  nhnet::OrientPlan plan = nhnet::resolve_orientation(cloud, st.orient);
+  if (plan.options.mode == nhnet::OrientMode::Keep && !cloud.has_normals()) {
     rep.warn("--orient keep: " + in + " has no normals; output normals stay unoriented");
-    orient.mode = nhnet::OrientMode::None;
+    plan.options.mode = nhnet::OrientMode::None;
   }
-  return orient;
+  return plan;
 }
 
 /// Reads IN, estimates, orients and writes OUT; fills `o`. Throws on failure.
@@ -147,10 +146,14 @@ void estimate_in_memory(const EstimateArgs& a, const Setup& st, Outcome& o) {
   nhnet::Cloud cloud = read_input(rep, o.in, read_warnings);
   throw_if_interrupted();
   o.points = int64_t(cloud.size());
-  nhnet::OrientOptions orient = orientation_for(a, st, rep, o.in, cloud);
+  const nhnet::OrientPlan plan = orientation_for(st, rep, o.in, cloud);
+  nhnet::OrientOptions orient = plan.options;
+  o.orient = nhnet::to_string(orient.mode);
+  o.orient_source = plan.source;
 
   // Estimate (exit 4 when too few finite points, 130 when interrupted), then orient.
-  const double est_end = orient.mode == nhnet::OrientMode::Mst ? 0.9 : 1.0;
+  const bool mst = orient.mode == nhnet::OrientMode::Mst || orient.mode == nhnet::OrientMode::Up;
+  const double est_end = mst ? 0.9 : 1.0;
   opt.run.progress = rep.callback(0.0, est_end);
   nhnet::EstimateResult res = nhnet::estimate_normals(cloud.points, opt);
   rep.clear();
@@ -174,6 +177,7 @@ void estimate_in_memory(const EstimateArgs& a, const Setup& st, Outcome& o) {
   sum.points = int64_t(cloud.size());
   sum.warnings = res.warnings.size() + read_warnings.size();
   sum.orient = orient;
+  sum.orient_source = plan.source;
   sum.orient_result = ores;
   print_estimate_summary(a.output, sum);
 }

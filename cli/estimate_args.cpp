@@ -70,25 +70,29 @@ void add_stream_orient_options(CLI::App* sub, EstimateArgs& a) {
                 "Out of core, for clouds larger than memory: read the XYZ text input in passes "
                 "and process it tile by tile (--tile-points) through temporary files; same "
                 "normals as in memory; output .ply or .xyz/.xyzn (x y z nx ny nz); orientation "
-                "keep (default when the input has normals, else none) or viewpoint");
+                "auto (keep when the input has normals, else none), keep or viewpoint");
   sub->add_option("--temp-dir", a.temp_dir,
                   "--stream: folder for the temporary tile files, ~48 bytes per point (default: "
                   "the output's folder)")
       ->type_name("DIR");
   sub->add_option("--orient", a.orient,
-                  "keep: agree with the input's normals (default when the input has normals); "
+                  "auto: from the file (keep its normals' signs; else towards the sensor it "
+                  "names: PCD VIEWPOINT, PLY camera, organized grid at the origin; else up for "
+                  "airborne scans; else mst); keep: agree with the input's normals; "
+                  "viewpoint X Y Z: towards a sensor at X Y Z; up: n_z > 0 (airborne); "
                   "mst[:K]: consistent over each connected part by a minimum spanning tree over "
                   "K neighbours (default K " +
-                      std::to_string(nhnet::OrientOptions{}.k) +
-                      "; default mode when the input has no normals); "
-                      "viewpoint X Y Z: towards a sensor at X Y Z; none: signs arbitrary")
+                      std::to_string(nhnet::OrientOptions{}.k) + "); none: signs arbitrary " +
+                      default_note(nhnet::to_string(nhnet::kDefaultOrientMode)))
       ->type_name("MODE");
 }
 
 const char* kFooter =
-    "Orientation: by default normals agree with the input's normals when it has some, else\n"
-    "they are made consistent by MST over each connected part (outward on closed surfaces;\n"
-    "the highest point of each part faces +z). Points that fail get NaN normals.\n"
+    "Orientation (--orient auto): normals agree with the input's normals when it has some;\n"
+    "else they face the sensor the file names (PCD VIEWPOINT, PLY camera element; an\n"
+    "organized cloud's sensor is at the origin); else up for airborne scans; else they are\n"
+    "made consistent by MST over each connected part (outward on closed surfaces). The\n"
+    "summary says which. Points that fail get NaN normals.\n"
     "Other per-point properties (colour, intensity, ...) are kept in PLY/PCD output.\n\n"
     "Examples:\n"
     "  nhnet-cli estimate scan.ply scan-normals.ply\n"
@@ -140,6 +144,7 @@ Setup prepare(const EstimateArgs& a) {
     throw nhnet::InvalidOptions("--device must be auto, cpu or cuda, got '" + a.device + "'");
   if (opt.method != nhnet::Method::NhNet && nhnet_asked)
     throw nhnet::InvalidOptions("--model and --device only apply to --method nhnet");
+  st.orient.mode = nhnet::kDefaultOrientMode;
   if (!a.orient.empty()) st.orient = parse_orient(a.orient);
   st.orient.run.threads = opt.run.threads;
   return st;
@@ -151,10 +156,10 @@ void check_stream(const EstimateArgs& a, const Setup& st) {
     if (!a.temp_dir.empty()) throw nhnet::InvalidOptions("--temp-dir only applies with --stream");
     return;
   }
-  if (st.orient.mode == nhnet::OrientMode::Mst && !a.orient.empty())
-    throw nhnet::InvalidOptions(
-        "--orient mst needs the whole cloud in memory; with --stream "
-        "use none, keep or viewpoint X Y Z");
+  if (st.orient.mode == nhnet::OrientMode::Mst || st.orient.mode == nhnet::OrientMode::Up)
+    throw nhnet::InvalidOptions("--orient " + std::string(nhnet::to_string(st.orient.mode)) +
+                                " needs the whole cloud in memory; with --stream "
+                                "use auto, none, keep or viewpoint X Y Z");
   if (st.opt.tiles.points <= 0) throw nhnet::InvalidOptions("--stream needs --tile-points > 0");
   const std::string out =
       a.batch() ? "x." + (a.ext.empty() ? std::string("xyzn") : a.ext) : a.files[1];

@@ -3,6 +3,7 @@
 #pragma once
 
 #include "args.hpp"
+#include "nhnet/orient/auto.hpp"
 #include "nhnet/orient/orient.hpp"
 #include "nhnet/pipeline/estimate.hpp"
 
@@ -27,7 +28,7 @@ struct EstimateArgs {
   std::string scales = scales_text(nhnet::EstimateOptions{}.mfps.scales);
   std::string threads = std::to_string(nhnet::EstimateOptions{}.run.threads);
   std::string tile_points = std::to_string(nhnet::EstimateOptions{}.tiles.points);
-  std::string orient;  ///< empty = keep when the input has normals, mst otherwise
+  std::string orient;  ///< empty = auto (nhnet::kDefaultOrientMode, resolved per input)
   std::string seed = std::to_string(nhnet::EstimateOptions{}.mfps.seed);
   std::string model;                                           ///< empty = the shipped model
   std::string device = nhnet::EstimateOptions{}.model.device;  ///< NH-Net device

@@ -69,7 +69,8 @@ std::string report_json(const Setup& st, const std::vector<Outcome>& outcomes, d
        << ", \"output\": " << json_string(o.out) << ", \"status\": " << json_string(o.status)
        << ", \"exit_code\": " << count_or_null(o.exit_code)
        << ", \"error\": " << json_or_null(o.error) << ", \"points\": " << count_or_null(o.points)
-       << ", \"invalid\": " << count_or_null(o.failed)
+       << ", \"invalid\": " << count_or_null(o.failed) << ", \"orient\": " << json_or_null(o.orient)
+       << ", \"orient_source\": " << json_or_null(o.orient_source)
        << ", \"seconds\": " << json_number(o.seconds, 4) << "}";
   }
   js << "\n  ]\n}\n";

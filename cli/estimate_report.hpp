@@ -17,6 +17,8 @@ struct Outcome {
   int exit_code = -1;
   std::string error;
   int64_t points = -1, failed = -1;
+  std::string orient;         ///< the orientation applied ("" = not reached)
+  std::string orient_source;  ///< why (OrientPlan::source, orient/auto.hpp)
   double seconds = 0;
 };
 

@@ -21,18 +21,22 @@ void warn_unoriented(Reporter& rep, const nhnet::OrientOptions& opt, const nhnet
     rep.warn("--orient " + std::string(nhnet::to_string(opt.mode)) + ": " +
              std::to_string(r.unoriented) + " normals could not be oriented (" +
              (opt.mode == nhnet::OrientMode::Keep ? "the input normal is missing or perpendicular"
+              : opt.mode == nhnet::OrientMode::Up ? "vertical, perpendicular to their guide"
                                                   : "perpendicular to the line of sight") +
              "); their sign is arbitrary");
 }
 
 namespace {
 
-/// Summary-line text: "mst (2 parts, 0 unoriented, 1234 flipped)", "keep (12 flipped)", "none".
-std::string orient_summary(const nhnet::OrientOptions& opt, const nhnet::OrientResult& r) {
+/// Summary-line text: "mst (2 parts, 0 unoriented, 1234 flipped; no sensor in the file: MST)",
+/// "keep (12 flipped; input normals)", "none"; the source only when auto chose the mode.
+std::string orient_summary(const nhnet::OrientOptions& opt, const std::string& source,
+                           const nhnet::OrientResult& r) {
   std::string s = nhnet::to_string(opt.mode);
-  if (opt.mode == nhnet::OrientMode::None) return s;
+  const std::string why = source.empty() || source == "requested" ? "" : source;
+  if (opt.mode == nhnet::OrientMode::None) return why.empty() ? s : s + " (" + why + ")";
   s += " (";
-  if (opt.mode == nhnet::OrientMode::Mst)
+  if (opt.mode == nhnet::OrientMode::Mst || opt.mode == nhnet::OrientMode::Up)
     s += std::to_string(r.components) + (r.components == 1 ? " part, " : " parts, ") +
          std::to_string(r.completed) + " completed, ";
   if (opt.mode != nhnet::OrientMode::Keep || r.unoriented > 0)
@@ -41,12 +45,14 @@ std::string orient_summary(const nhnet::OrientOptions& opt, const nhnet::OrientR
   if (opt.mode == nhnet::OrientMode::Mst && opt.inside_outside)
     s += r.voxel > 0 ? ", " + std::to_string(r.inside_outside_votes) + " sided by the flood fill"
                      : ", open: the tree alone";
-  return s + ")";
+  return s + (why.empty() ? ")" : "; " + why + ")");
 }
 
 /// JSON members: "orient": "...", "flipped": N, "unoriented": N, "components": N, ...
-std::string orient_json(const nhnet::OrientOptions& opt, const nhnet::OrientResult& r) {
+std::string orient_json(const nhnet::OrientOptions& opt, const std::string& source,
+                        const nhnet::OrientResult& r) {
   std::string s = "\"orient\": " + json_string(nhnet::to_string(opt.mode)) +
+                  ", \"orient_source\": " + json_string(source) +
                   ", \"flipped\": " + std::to_string(r.flipped) +
                   ", \"unoriented\": " + std::to_string(r.unoriented) +
                   ", \"components\": " + std::to_string(r.components) +
@@ -83,7 +89,8 @@ void print_estimate_line(const EstimateSummary& s) {
        << nhnet::to_string(s.method) << (nhnet ? " on " + s.device : std::string()) << ", k " << s.k
        << ", scales " << (s.scales.empty() ? std::string("-") : join(s.scales, "/"))
        << ", noise ratio " << noise << ", " << s.candidates << " candidates" << tiles << ", orient "
-       << orient_summary(s.orient, s.orient_result) << ", " << secs << " s, output " << s.out;
+       << orient_summary(s.orient, s.orient_source, s.orient_result) << ", " << secs
+       << " s, output " << s.out;
   std::cerr << line.str() << std::endl;
 }
 
@@ -96,7 +103,7 @@ void print_estimate_json(const EstimateSummary& s) {
      << ", \"noise_ratio\": " << json_number(s.noise_ratio)
      << ", \"spacing\": " << json_number(s.spacing) << ", \"candidates\": " << s.candidates
      << ", \"tiles\": " << s.tiles << (s.streamed ? ", \"streamed\": true" : "") << ", "
-     << orient_json(s.orient, s.orient_result) << ", \"warnings\": " << s.warnings
+     << orient_json(s.orient, s.orient_source, s.orient_result) << ", \"warnings\": " << s.warnings
      << ", \"seconds\": " << json_number(s.seconds, 4) << "}";
   std::cout << js.str() << std::endl;
 }

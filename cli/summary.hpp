@@ -30,6 +30,7 @@ struct EstimateSummary {
   bool streamed = false;
   size_t warnings = 0;
   nhnet::OrientOptions orient;
+  std::string orient_source;  ///< why this orientation (OrientPlan::source, orient/auto.hpp)
   nhnet::OrientResult orient_result;
   double seconds = 0;
 };

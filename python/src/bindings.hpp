@@ -3,6 +3,7 @@
 // adapters over the core: copy arrays in, call the core with the GIL released, copy results out.
 #pragma once
 
+#include "nhnet/io/cloud.hpp"
 #include "nhnet/orient/orient.hpp"
 #include "nhnet/progress.hpp"
 #include "nhnet/types.hpp"
@@ -92,7 +93,30 @@ auto run_released(const py::object& progress, Fn&& fn) {
 struct OrientRequest {
   OrientOptions options;
   Normals reference;
+  std::string source;  ///< why this orientation (OrientPlan::source)
 };
+
+/// A cloud on the Python side (nhnet.Cloud): numpy arrays, extras as {name: 1-D array of the
+/// file's type}, and what the file says about its sensor (io/cloud.hpp).
+struct PyCloud {
+  py::object points;
+  py::object normals = py::none();
+  py::dict extras;
+  std::vector<Sensor> sensors;
+  std::vector<int32_t> sensor_index;
+  int64_t grid_width = 0, grid_height = 0;
+  bool airborne = false;
+};
+
+/// The points of an (N, 3) array or of an nhnet.Cloud.
+Points points_of(const py::handle& points);
+
+/// A core Cloud with `pc`'s points, normals and sensor fields (no extras).
+Cloud core_cloud(const PyCloud& pc);
+
+/// `orient` "auto" made concrete: for an nhnet.Cloud by resolve_orientation (orient/auto.hpp;
+/// keep takes the cloud's normals as the reference), for a bare array `array_mode`.
+void resolve_request(OrientRequest& req, const py::handle& points, OrientMode array_mode);
 OrientRequest orient_request(const py::object& orient, const py::object& reference,
                              const py::object& viewpoint, int k, Eigen::Index n);
 

@@ -3,6 +3,7 @@
 #include "bindings.hpp"
 
 #include "nhnet/errors.hpp"
+#include "nhnet/orient/auto.hpp"
 #include "nhnet/pipeline/estimate.hpp"
 
 #include <pybind11/stl.h>
@@ -20,24 +21,28 @@ struct PyEstimateResult {
   py::array_t<double> normals;
   py::array_t<bool> valid;
   py::array_t<double> curvature;
-  OrientResult orient;  ///< what orient= did (zeros without it)
+  OrientResult orient;                     ///< what orient= did (zeros without it)
+  std::string orient_mode, orient_source;  ///< the orientation applied and why
 };
 
-PyEstimateResult estimate(const py::handle& points, const std::string& method, int k,
+PyEstimateResult estimate(const py::handle& points, const std::optional<std::string>& method, int k,
                           std::optional<std::vector<int>> scales, int threads, uint64_t seed,
                           const py::object& orient, const py::object& viewpoint,
                           const py::object& progress) {
   EstimateOptions opt;
-  opt.method = method_from_string(method);
+  opt.method = method ? method_from_string(*method) : default_method();
   opt.k = k;
   if (scales) opt.mfps.scales = *scales;
   opt.run.threads = threads;
   opt.mfps.seed = seed;
-  const Points pts = to_points(points, "points");
+  const Points pts = points_of(points);
   OrientRequest req = orient_request(orient, py::none(), viewpoint, OrientOptions().k, pts.rows());
+  resolve_request(req, points, OrientMode::None);
   req.options.run.threads = threads;
 
   PyEstimateResult out;
+  out.orient_mode = to_string(req.options.mode);
+  out.orient_source = req.source;
   out.core = run_released(progress, [&](ProgressCallback cb) {
     opt.run.progress = std::move(cb);
     EstimateResult res = estimate_normals(pts, opt);
@@ -60,11 +65,14 @@ PyEstimateResult estimate(const py::handle& points, const std::string& method, i
 const char* kArgsDoc = R"(
 Parameters
 ----------
-points : array_like, shape (N, 3)
-    Point coordinates (converted to float64). Rows with a NaN or infinite coordinate are
+points : array_like, shape (N, 3), or nhnet.Cloud
+    Point coordinates (converted to float64), or a cloud from nhnet.read() (its points; its
+    normals and sensor decide orient='auto'). Rows with a NaN or infinite coordinate are
     skipped: they get a NaN normal, are counted as failed and never influence their neighbours.
-method : {'mfps', 'pca'}
-    'mfps' (default): PCA for smooth points and multi-scale fitting patch selection near sharp
+method : {None, 'nhnet', 'mfps', 'pca'}
+    None (default): the core's default_method(), as nhnet-cli: 'nhnet' when this build has
+    libtorch and the shipped model is installed, else 'mfps'. 'nhnet': MFPS refined by the
+    trained NH-Net. 'mfps': PCA for smooth points and multi-scale fitting patch selection near sharp
     features (paper Sec. 4), candidates then blended towards their PCA normal where the
     selection is likely wrong (docs/design/paper.md#the-geometry-stage-as-implemented, step 4). 'pca': plain PCA over the k nearest neighbours.
 k : int
@@ -77,8 +85,12 @@ threads : int
 seed : int
     Seed of MFPS's random plane samples; results are deterministic for a seed whatever the
     thread count (default 1, the same as nhnet-cli).
-orient : None, 'mst', 'viewpoint' or array_like (N, 3)
-    None (default): unoriented normals (sign arbitrary). 'mst': consistent signs propagated
+orient : 'auto', None, 'mst', 'viewpoint', 'up' or array_like (N, 3)
+    'auto' (default): for an nhnet.Cloud, what its file says, as nhnet-cli (its normals' signs,
+    else towards its sensor: PCD VIEWPOINT, PLY camera, an organized grid's origin; else 'up'
+    for airborne scans; else 'mst'); for a bare array nothing is known and the normals stay
+    unoriented (see `orient_source`). None: unoriented normals (sign arbitrary). 'up': +z where
+    the surface is not near vertical. 'mst': consistent signs propagated
     over the k-NN graph (see nhnet.orient). 'viewpoint': every normal turned towards
     `viewpoint`. An (N, 3) array: reference normals each result normal is flipped to agree
     with (what ``nhnet-cli estimate --orient keep`` does with the input's normals).
@@ -133,6 +145,10 @@ void register_estimate(py::module_& m) {
       .def_property_readonly(
           "unoriented", [](const PyEstimateResult& r) { return r.orient.unoriented; },
           "Valid normals whose sign `orient` could not decide (0 without it).")
+      .def_readonly("orient_mode", &PyEstimateResult::orient_mode,
+                    "The orientation applied ('auto' resolved: 'keep', 'viewpoint', 'none', ...).")
+      .def_readonly("orient_source", &PyEstimateResult::orient_source,
+                    "Why: 'sensor from PCD VIEWPOINT at (0, 0, 0)', 'input normals', ...")
       .def("__repr__", [](const PyEstimateResult& r) {
         return "<nhnet.EstimateResult points=" + std::to_string(r.normals.shape(0)) +
                " failed=" + std::to_string(r.core.failed) +
@@ -149,11 +165,10 @@ void register_estimate(py::module_& m) {
   // Defaults from the core's options (one place for every front end).
   const EstimateOptions defaults;
   const auto args = std::make_tuple(
-      py::arg("points"), py::kw_only(), py::arg("method") = std::string(to_string(defaults.method)),
-      py::arg("k") = defaults.k, py::arg("scales") = py::none(),
-      py::arg("threads") = defaults.run.threads, py::arg("seed") = defaults.mfps.seed,
-      py::arg("orient") = py::none(), py::arg("viewpoint") = py::none(),
-      py::arg("progress") = py::none());
+      py::arg("points"), py::kw_only(), py::arg("method") = py::none(), py::arg("k") = defaults.k,
+      py::arg("scales") = py::none(), py::arg("threads") = defaults.run.threads,
+      py::arg("seed") = defaults.mfps.seed, py::arg("orient") = to_string(kDefaultOrientMode),
+      py::arg("viewpoint") = py::none(), py::arg("progress") = py::none());
   std::apply([&](const auto&... a) { m.def("estimate", &estimate, estimate_doc.c_str(), a...); },
              args);
 
@@ -163,7 +178,8 @@ void register_estimate(py::module_& m) {
           "that failed. The core's warnings are issued as Python RuntimeWarnings; use "
           "nhnet.estimate() for the valid mask, the noise ratio and the sizes used.\n") +
       kArgsDoc;
-  const auto estimate_normals = [](const py::handle& points, const std::string& method, int k,
+  const auto estimate_normals = [](const py::handle& points,
+                                   const std::optional<std::string>& method, int k,
                                    std::optional<std::vector<int>> scales, int threads,
                                    uint64_t seed, const py::object& orient,
                                    const py::object& viewpoint, const py::object& progress) {

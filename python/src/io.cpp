@@ -11,13 +11,6 @@ namespace nhnet::python {
 
 namespace {
 
-/// A cloud on the Python side: numpy arrays, extras as {name: 1-D array of the file's type}.
-struct PyCloud {
-  py::object points;
-  py::object normals = py::none();
-  py::dict extras;
-};
-
 struct TypeName {
   ScalarType type;
   const char* dtype;
@@ -51,6 +44,11 @@ PyCloud read(const std::string& path, const std::optional<std::string>& format) 
       throw py::error_already_set();
   PyCloud out;
   out.points = to_numpy(c.points);
+  out.sensors = c.sensors;
+  out.sensor_index = c.sensor_index;
+  out.grid_width = c.grid_width;
+  out.grid_height = c.grid_height;
+  out.airborne = c.airborne;
   if (c.has_normals()) out.normals = to_numpy(c.normals);
   py::module_ np = py::module_::import("numpy");
   for (const ExtraProperty& e : c.extras) {
@@ -100,6 +98,11 @@ void write(const std::string& path, const py::object& points, const py::object& 
     pts = pc.points;
     if (nrm.is_none()) nrm = pc.normals;
     if (ext.is_none()) ext = pc.extras;
+    c.sensors = pc.sensors;
+    c.sensor_index = pc.sensor_index;
+    c.grid_width = pc.grid_width;
+    c.grid_height = pc.grid_height;
+    c.airborne = pc.airborne;
   }
   c.points = to_points(pts, "points");
   if (!nrm.is_none()) {
@@ -119,9 +122,63 @@ void write(const std::string& path, const py::object& points, const py::object& 
   write_cloud(path, c, opt);
 }
 
+py::array_t<double> vector_numpy(const Eigen::Vector3d& v) {
+  py::array_t<double> a(3);
+  for (int i = 0; i < 3; ++i) a.mutable_data()[i] = v[i];
+  return a;
+}
+
+/// The nhnet.Sensor class and the sensor fields of nhnet.Cloud.
+void register_sensor(py::module_& m) {
+  py::class_<Sensor>(m, "Sensor",
+                     "A sensor the file names (PCD VIEWPOINT, PLY camera element, ...): "
+                     "`position` (3,), `rotation` (3, 3; columns = the sensor's axes in the "
+                     "points' frame), `source` (for reports).")
+      .def(py::init([](const py::handle& position, const py::handle& rotation) {
+             Sensor s;
+             const Points p = to_points(
+                 py::module_::import("numpy").attr("reshape")(position, py::make_tuple(1, 3)),
+                 "position");
+             s.position = p.row(0).transpose();
+             if (!rotation.is_none()) {
+               const Points r = to_points(rotation, "rotation");
+               if (r.rows() != 3) throw InvalidOptions("rotation must be a (3, 3) array");
+               s.rotation = r;
+             }
+             s.source = "Python";
+             return s;
+           }),
+           py::arg("position"), py::arg("rotation") = py::none())
+      .def_property_readonly("position", [](const Sensor& s) { return vector_numpy(s.position); })
+      .def_property_readonly("rotation",
+                             [](const Sensor& s) {
+                               Points r = s.rotation;
+                               return to_numpy(r);
+                             })
+      .def_readonly("source", &Sensor::source)
+      .def("__repr__", [](const Sensor& s) {
+        return "<nhnet.Sensor at (" + std::to_string(s.position.x()) + ", " +
+               std::to_string(s.position.y()) + ", " + std::to_string(s.position.z()) + ") from " +
+               s.source + ">";
+      });
+}
+
 }  // namespace
 
+Cloud core_cloud(const PyCloud& pc) {
+  Cloud c;
+  c.points = to_points(pc.points, "points");
+  if (!pc.normals.is_none()) c.normals = to_points(pc.normals, "normals");
+  c.sensors = pc.sensors;
+  c.sensor_index = pc.sensor_index;
+  c.grid_width = pc.grid_width;
+  c.grid_height = pc.grid_height;
+  c.airborne = pc.airborne;
+  return c;
+}
+
 void register_io(py::module_& m) {
+  register_sensor(m);
   py::class_<PyCloud>(m, "Cloud",
                       "A point cloud as read by nhnet.read(): `points` (N, 3) float64, "
                       "`normals` (N, 3) float64 or None, `extras` {name: (N,) array} holding the "
@@ -139,6 +196,28 @@ void register_io(py::module_& m) {
       .def_readwrite("points", &PyCloud::points, "(N, 3) float64 coordinates.")
       .def_readwrite("normals", &PyCloud::normals, "(N, 3) float64 normals or None.")
       .def_readwrite("extras", &PyCloud::extras, "{name: (N,) array} other properties.")
+      .def_readwrite("sensors", &PyCloud::sensors,
+                     "[nhnet.Sensor] the sensors the file names (empty: none known); what "
+                     "orient='auto' turns the normals towards.")
+      .def_readwrite("sensor_index", &PyCloud::sensor_index,
+                     "Per point, its sensor's index into `sensors` (empty: all sensors[0]).")
+      .def_property(
+          "grid",
+          [](const PyCloud& c) -> py::object {
+            if (c.grid_width <= 0 || c.grid_height <= 0) return py::none();
+            return py::make_tuple(c.grid_width, c.grid_height);
+          },
+          [](PyCloud& c, const py::object& g) {
+            const auto wh =
+                g.is_none() ? std::vector<int64_t>{0, 0} : g.cast<std::vector<int64_t>>();
+            if (wh.size() != 2) throw InvalidOptions("grid must be (width, height) or None");
+            c.grid_width = wh[0];
+            c.grid_height = wh[1];
+          },
+          "(width, height) of an organized cloud (a depth image, row-major), or None.")
+      .def_readwrite("airborne", &PyCloud::airborne,
+                     "Taken from above with no known sensor (airborne LiDAR): orient='auto' "
+                     "turns normals up.")
       .def("__len__", [](const PyCloud& c) { return py::len(c.points); })
       .def("__repr__", [](const PyCloud& c) {
         return "<nhnet.Cloud points=" + std::to_string(py::len(c.points)) +

@@ -3,6 +3,7 @@
 #include "bindings.hpp"
 
 #include "nhnet/errors.hpp"
+#include "nhnet/orient/auto.hpp"
 #include "nhnet/orient/orient.hpp"
 
 #include <pybind11/stl.h>
@@ -44,24 +45,52 @@ OrientRequest orient_request(const py::object& orient, const py::object& referen
   return req;
 }
 
+void resolve_request(OrientRequest& req, const py::handle& points, OrientMode array_mode) {
+  if (req.options.mode != OrientMode::Auto) {
+    req.source = "requested";
+    return;
+  }
+  if (!py::isinstance<PyCloud>(points)) {
+    req.options.mode = array_mode;
+    req.source = std::string("an array names no sensor: ") + to_string(array_mode);
+    return;
+  }
+  const Cloud cloud = core_cloud(points.cast<const PyCloud&>());
+  OrientPlan plan = resolve_orientation(cloud, req.options);
+  req.options = plan.options;
+  req.source = plan.source;
+  if (req.options.mode == OrientMode::Keep) req.reference = cloud.normals;
+}
+
+/// The points of an array or of an nhnet.Cloud.
+Points points_of(const py::handle& points) {
+  if (py::isinstance<PyCloud>(points))
+    return to_points(points.cast<const PyCloud&>().points, "cloud.points");
+  return to_points(points, "points");
+}
+
 namespace {
 
 struct PyOrientResult {
   OrientResult core;
   py::array_t<double> normals;
+  std::string mode, source;  ///< the orientation applied and why
 };
 
 PyOrientResult orient(const py::handle& points, const py::handle& normals, const py::object& mode,
                       const py::object& reference, const py::object& viewpoint, int k, int threads,
                       const py::object& progress) {
-  const Points pts = to_points(points, "points");
+  const Points pts = points_of(points);
   Normals nrm = to_points(normals, "normals");
   if (nrm.rows() != pts.rows())
     throw InvalidOptions("normals must have one row per point: got " + std::to_string(nrm.rows()) +
                          " for " + std::to_string(pts.rows()) + " points");
   OrientRequest req = orient_request(mode, reference, viewpoint, k, pts.rows());
+  resolve_request(req, points, OrientMode::Mst);
   req.options.run.threads = threads;
   PyOrientResult out;
+  out.mode = to_string(req.options.mode);
+  out.source = req.source;
   out.core = run_released(progress, [&](ProgressCallback cb) {
     req.options.run.progress = std::move(cb);
     return orient_normals(pts, nrm, req.options, req.reference);
@@ -97,6 +126,10 @@ void register_orient(py::module_& m) {
       .def_property_readonly("voxel", core_field<PyOrientResult>(&OrientResult::voxel),
                              "'mst': voxel size of the flood fill's grid (points' units; 0 = no "
                              "watertight grid, the tree alone decided).")
+      .def_readonly("mode", &PyOrientResult::mode,
+                    "The orientation applied ('auto' resolved: 'keep', 'viewpoint', ...).")
+      .def_readonly("source", &PyOrientResult::source,
+                    "Why: 'sensor from PCD VIEWPOINT at (0, 0, 0)', 'input normals', ...")
       .def("__repr__", [](const PyOrientResult& r) {
         return "<nhnet.OrientResult flipped=" + std::to_string(r.core.flipped) +
                " unoriented=" + std::to_string(r.core.unoriented) +
@@ -106,18 +139,24 @@ void register_orient(py::module_& m) {
   m.def("orient", &orient,
         "Orients normals (consistent signs); returns an OrientResult whose `normals` is a new "
         "(N, 3) array in the input's order.\n\n"
-        "mode : 'mst' (default) propagates signs over a minimum spanning tree of the k-NN graph "
+        "points : (N, 3) array or an nhnet.Cloud (from nhnet.read).\n"
+        "mode : 'auto' (default): for an nhnet.Cloud, what its file says, as nhnet-cli "
+        "(its normals' signs, else towards its sensor or an organized grid's origin, else 'up' "
+        "for airborne scans, else 'mst'); for an array 'mst'. 'mst' propagates signs over a "
+        "minimum spanning tree of the k-NN graph "
         "(Hoppe et al. 1992, CGAL's mst_orient_normals, once per connected component; outward on "
         "a closed surface, where a voxel flood fill first decides each point's outside and the "
         "tree grows from those points: see OrientResult.inside_outside_votes); 'viewpoint' "
-        "turns every normal towards `viewpoint` (x, y, z; default the origin); 'keep' makes each "
+        "turns every normal towards `viewpoint` (x, y, z; default the origin); 'up' turns "
+        "normals to +z where the surface is not near vertical (airborne scans), the rest by "
+        "the tree; 'keep' makes each "
         "normal agree with `reference` (N, 3); 'none' changes "
         "nothing.\n"
         "k : neighbours per point of the 'mst' graph (default 18, at least 2).\n"
         "threads, progress : as in nhnet.estimate(); the GIL is released, Ctrl-C interrupts.\n\n"
         "Raises nhnet.InvalidOptions (a ValueError) for bad options or mismatched sizes.",
-        py::arg("points"), py::arg("normals"), py::arg("mode") = "mst", py::kw_only(),
-        py::arg("reference") = py::none(), py::arg("viewpoint") = py::none(),
+        py::arg("points"), py::arg("normals"), py::arg("mode") = to_string(kDefaultOrientMode),
+        py::kw_only(), py::arg("reference") = py::none(), py::arg("viewpoint") = py::none(),
         py::arg("k") = OrientOptions().k, py::arg("threads") = OrientOptions().run.threads,
         py::arg("progress") = py::none());
 }

@@ -316,6 +316,25 @@ case_row15_pcd_errors() {
   refused 3 lzf2.pcd "corrupt binary_compressed"
 }
 
+case_row15b_sensor_pose_not_a_rotation() {
+  # A sensor pose that is not a rotation (orient auto's sensor, docs/cli.md#orientation): exit 3
+  # naming the file, as any malformed header.
+  local head='VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 3\nHEIGHT 1\n'
+  local pts='POINTS 3\nDATA ascii\n0 0 1\n1 0 1\n0 1 1\n'
+  printf "${head}VIEWPOINT 0 0 0 0 0 0 0\n${pts}" >q0.pcd
+  printf "${head}VIEWPOINT 0 0 0 nan 0 0 1\n${pts}" >qnan.pcd
+  printf "${head}VIEWPOINT 0 0 0 1 0 0\n${pts}" >q6.pcd
+  printf "${head}VIEWPOINT 0 0 x 1 0 0 0\n${pts}" >qx.pcd
+  refused 3 q0.pcd "VIEWPOINT" "not a rotation"
+  refused 3 qnan.pcd "VIEWPOINT" "not a rotation"
+  refused 3 q6.pcd "bad VIEWPOINT line"
+  refused 3 qx.pcd "malformed VIEWPOINT value 'x'"
+  local cam='element camera 1\nproperty float view_px\nproperty float view_py\nproperty float view_pz\n'
+  cam+='property float x_axisx\nproperty float x_axisy\nproperty float x_axisz\n'
+  printf "ply\nformat ascii 1.0\nelement vertex 3\n${PLY_XYZ}${cam}end_header\n0 0 1\n1 0 1\n0 1 1\n1 2 3 0 0 0\n" >axes.ply
+  refused 3 axes.ply "PLY camera" "not a rotation"
+}
+
 case_row16_xyz_ragged_header_blank() {
   printf '1 2 3\n4 5 6\n7 8\n' >ragged.xyz
   printf 'x y z\n1 2 3\n' >header.xyz

@@ -108,8 +108,8 @@ def test_full_result_fields_and_non_finite_points():
 
 def test_seed_determinism_and_thread_independence():
     pts = sphere(3000)
-    a = nhnet.estimate_normals(pts, threads=1, seed=7, scales=[20, 40])
-    b = nhnet.estimate_normals(pts, threads=2, seed=7, scales=[20, 40])
+    a = nhnet.estimate_normals(pts, method="mfps", threads=1, seed=7, scales=[20, 40])
+    b = nhnet.estimate_normals(pts, method="mfps", threads=2, seed=7, scales=[20, 40])
     np.testing.assert_array_equal(a, b)
 
 
@@ -294,7 +294,7 @@ def test_ctrl_c_interrupts_estimation():
         "p = np.random.default_rng(0).normal(size=(400000, 3))\n"
         "try:\n"
         "    print('start', flush=True)\n"
-        "    nhnet.estimate_normals(p, threads=1)\n"
+        "    nhnet.estimate_normals(p, method='mfps', threads=1)\n"
         "except KeyboardInterrupt:\n"
         "    print('interrupted', flush=True); sys.exit(42)\n"
         "print('finished', flush=True)\n")
@@ -322,12 +322,14 @@ def test_same_normals_as_cli(tmp_path):
     sub = tmp_path / "sub.xyz"
     nhnet.write(str(sub), cloud.points[:4000])
     out = tmp_path / "cli.xyzn"
-    # --orient none: estimate_normals() is unoriented by default, the CLI orients (mst).
-    # --method mfps: estimate_normals()'s default; the CLI's is nhnet.
+    # --orient none: an array names no sensor, so estimate_normals()'s orient='auto' leaves
+    # it unoriented; the CLI's auto orients an .xyz by mst. --method mfps on both: their
+    # common default (default_method()) is nhnet where the model is installed.
     subprocess.run([str(CLI), "estimate", str(sub), str(out), "--quiet", "--scales", "30,60",
                     "--seed", "3", "--orient", "none", "--method", "mfps"], check=True)
     cli = nhnet.read(str(out)).normals
-    py = nhnet.estimate_normals(nhnet.read(str(sub)).points, scales=[30, 60], seed=3)
+    py = nhnet.estimate_normals(nhnet.read(str(sub)).points, method="mfps", scales=[30, 60],
+                                seed=3)
     np.testing.assert_allclose(py, cli, atol=1e-12)  # XYZ text keeps full double precision
 
 
@@ -362,8 +364,8 @@ def test_orient_mst_and_viewpoint_on_a_sphere():
 def test_orient_errors():
     pts = sphere(100)
     n = nhnet.estimate_normals(pts, method="pca", k=10)
-    with pytest.raises(nhnet.InvalidOptions, match="unknown orientation 'up'"):
-        nhnet.orient(pts, n, "up")
+    with pytest.raises(nhnet.InvalidOptions, match="unknown orientation 'sideways'"):
+        nhnet.orient(pts, n, "sideways")
     with pytest.raises(nhnet.InvalidOptions, match="needs one reference normal per point"):
         nhnet.orient(pts, n, "keep")
     with pytest.raises(nhnet.InvalidOptions, match="viewpoint is only used with"):

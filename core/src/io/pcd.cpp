@@ -4,7 +4,15 @@
 // fields become extras; COUNT > 1 fields and unsupported 64-bit integers are dropped with a
 // warning; "_" padding is ignored. Sizes are checked against the file before allocating.
 // Writer: x y z (float when lossless, else double), normal_x..z as float, extras as declared.
+//
+// Sensor (orient auto, auto.hpp): VIEWPOINT tx ty tz qw qx qy qz is the sensor's pose. PCL writes
+// the default "0 0 0 1 0 0 0" on every cloud, so on an unorganized cloud (HEIGHT 1) that default
+// says nothing and no sensor is read; on an organized cloud (HEIGHT > 1, a depth image in its
+// camera's frame) it is the sensor at the origin. HEIGHT > 1 also gives the grid (WIDTH x
+// HEIGHT, row-major). The writer stores the cloud's single sensor as VIEWPOINT and its grid as
+// WIDTH x HEIGHT.
 #include "io/detail.hpp"
+#include "io/sensor.hpp"
 
 #include <algorithm>
 #include <array>
@@ -27,6 +35,9 @@ struct Field {
 struct PcdHeader {
   std::vector<Field> fields;
   uint64_t points = 0;
+  uint64_t width = 0, height = 1;
+  bool has_viewpoint = false;
+  Sensor viewpoint;  ///< the VIEWPOINT line's pose (default pose when absent)
   DataKind data = DataKind::Ascii;
   size_t data_offset = 0;
   size_t data_line = 0;
@@ -38,7 +49,7 @@ std::string at_line(size_t line) { return " (line " + std::to_string(line) + ")"
 
 /// Raw keyword values collected from the header lines.
 struct RawHeader {
-  std::vector<std::string> fields, size, type, count;
+  std::vector<std::string> fields, size, type, count, viewpoint;
   std::string width, height = "1", points, data;
   bool have_fields = false, have_size = false, have_type = false, have_count = false;
 };
@@ -93,7 +104,10 @@ RawHeader scan_header(const FileBytes& file, PcdHeader& header) {
     } else if (key == "POINTS") {
       raw.points = single_value(file, tokens, key, n);
     } else if (key == "VIEWPOINT") {
-      continue;
+      raw.viewpoint.clear();
+      rest_tokens(tokens, raw.viewpoint);
+      if (raw.viewpoint.size() != 7)
+        input_error(file.path, "bad VIEWPOINT line (expected tx ty tz qw qx qy qz)" + at_line(n));
     } else if (key == "DATA") {
       raw.data = single_value(file, tokens, key, n);
       header.data_offset = lines.offset();
@@ -179,6 +193,17 @@ void build_fields(const FileBytes& file, const RawHeader& raw, PcdHeader& header
   }
 }
 
+/// The VIEWPOINT line's pose; InputError for a malformed number or a quaternion that is not a
+/// rotation.
+Sensor parse_viewpoint(const FileBytes& file, const std::vector<std::string>& v) {
+  double x[7];
+  for (size_t i = 0; i < 7; ++i)
+    if (!parse_double(v[i], x[i]))
+      input_error(file.path, "malformed VIEWPOINT value " + quote_token(v[i]));
+  return sensor_from_quaternion(file.path, {x[0], x[1], x[2]}, {x[3], x[4], x[5], x[6]},
+                                "PCD VIEWPOINT");
+}
+
 /// Parses and validates the whole header.
 PcdHeader parse_header(const FileBytes& file) {
   PcdHeader header;
@@ -188,6 +213,10 @@ PcdHeader parse_header(const FileBytes& file) {
   const uint64_t height = header_count(file, "HEIGHT", raw.height);
   const uint64_t wh = (height != 0 && width > kMaxCount / height) ? kMaxCount + 1 : width * height;
   header.points = raw.points.empty() ? wh : header_count(file, "POINTS", raw.points);
+  header.width = width;
+  header.height = height;
+  header.has_viewpoint = !raw.viewpoint.empty();
+  if (header.has_viewpoint) header.viewpoint = parse_viewpoint(file, raw.viewpoint);
   if (header.points != wh)
     input_error(file.path, "POINTS " + std::to_string(header.points) +
                                " does not match WIDTH*HEIGHT " + std::to_string(width) + "*" +
@@ -385,6 +414,21 @@ bool lzf_decompress(const unsigned char* in, size_t in_size, unsigned char* out,
   return op == out_size;
 }
 
+namespace {
+
+/// The grid and the sensor of the header (see the top of this file).
+void set_sensor(const PcdHeader& h, Cloud& cloud) {
+  const bool organized = h.height > 1 && h.width > 0;
+  if (organized) {
+    cloud.grid_width = int64_t(h.width);
+    cloud.grid_height = int64_t(h.height);
+  }
+  if (h.has_viewpoint && (organized || !default_pose(h.viewpoint)))
+    cloud.sensors.push_back(h.viewpoint);
+}
+
+}  // namespace
+
 Cloud read_pcd(const FileBytes& file, std::vector<std::string>* warnings) {
   const PcdHeader h = parse_header(file);
   const uint64_t remaining = file.bytes.size() - h.data_offset;
@@ -408,6 +452,7 @@ Cloud read_pcd(const FileBytes& file, std::vector<std::string>* warnings) {
     case DataKind::Binary: read_binary(file, h, slots, cloud); break;
     case DataKind::Compressed: read_compressed(file, h, slots, cloud); break;
   }
+  set_sensor(h, cloud);
   return cloud;
 }
 
@@ -420,6 +465,20 @@ namespace {
 char pcd_type(ScalarType t) {
   if (!is_integer(t)) return 'F';
   return (t == ScalarType::Int8 || t == ScalarType::Int16 || t == ScalarType::Int32) ? 'I' : 'U';
+}
+
+/// "tx ty tz qw qx qy qz" of the cloud's single sensor, else the default pose.
+std::string viewpoint_text(const Cloud& cloud) {
+  const Sensor* s = single_sensor(cloud);
+  if (!s) return "0 0 0 1 0 0 0";
+  const std::array<double, 4> q = quaternion_of(s->rotation);
+  std::string text;
+  for (const double v :
+       {s->position.x(), s->position.y(), s->position.z(), q[0], q[1], q[2], q[3]}) {
+    if (!text.empty()) text += ' ';
+    append_number(v, ScalarType::Float64, text);
+  }
+  return text;
 }
 
 }  // namespace
@@ -435,9 +494,12 @@ void write_pcd(Sink& sink, const Cloud& cloud, bool ascii) {
     count += " 1";
   }
   const std::string n = std::to_string(cloud.size());
+  const bool grid = cloud.organized();
   std::string out = "# .PCD v0.7 - Point Cloud Data file format (written by nhnet)\nVERSION 0.7\n" +
-                    fields + "\n" + size + "\n" + type + "\n" + count + "\nWIDTH " + n +
-                    "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " + n + "\nDATA " +
+                    fields + "\n" + size + "\n" + type + "\n" + count + "\nWIDTH " +
+                    (grid ? std::to_string(cloud.grid_width) : n) + "\nHEIGHT " +
+                    (grid ? std::to_string(cloud.grid_height) : "1") + "\nVIEWPOINT " +
+                    viewpoint_text(cloud) + "\nPOINTS " + n + "\nDATA " +
                     (ascii ? "ascii" : "binary") + "\n";
   write_rows(sink, cols, cloud.size(), ascii, out);
 }

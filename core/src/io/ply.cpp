@@ -4,10 +4,20 @@
 // the bytes left in the file before anything is allocated; non-vertex elements and list
 // properties are parsed past (never allocated) and reported as warnings. Writer: one vertex
 // element, x y z as float when lossless (else double), nx ny nz as float, extras as declared.
+//
+// Sensor (orient auto, auto.hpp), PCL's convention (pcl::PLYWriter): "element camera 1" with
+// view_px view_py view_pz (the sensor's position), x_axisx ... z_axisz (the rotation, row by row
+// as PCL writes it) and viewportx viewporty (the grid of an organized cloud when their product
+// is the vertex count); also "obj_info num_cols W" / "obj_info num_rows H" (PCL without camera)
+// for the grid. PCL writes a camera at the origin on every cloud: on an unorganized cloud that
+// default pose says nothing and no sensor is read (as PCD's default VIEWPOINT, pcd.cpp). The
+// writer adds the camera element when the cloud has a single sensor or a grid.
 #include "io/detail.hpp"
+#include "io/sensor.hpp"
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <string>
 
 namespace nhnet::io_detail {
@@ -33,6 +43,8 @@ struct Header {
   std::vector<Element> elements;
   size_t data_offset = 0;  ///< first byte after the end_header line
   size_t data_line = 0;    ///< number of the first line after end_header
+  int64_t num_cols = 0;    ///< obj_info num_cols (0 = none)
+  int64_t num_rows = 0;    ///< obj_info num_rows (0 = none)
 };
 
 /// Maps a PLY type name (classic and sized spellings) to a scalar type.
@@ -151,6 +163,15 @@ void parse_property_line(const FileBytes& file, const HeaderLine& h, size_t line
   e.props.push_back(std::move(p));
 }
 
+/// "obj_info num_cols N" / "obj_info num_rows N" (the grid, when well-formed); other obj_info
+/// lines are notes.
+void parse_obj_info(const HeaderLine& h, Header& header) {
+  uint64_t v = 0;
+  if (h.count != 3 || !parse_count(h.token[2], kMaxCount, v)) return;
+  if (h.token[1] == "num_cols") header.num_cols = int64_t(v);
+  if (h.token[1] == "num_rows") header.num_rows = int64_t(v);
+}
+
 /// Offset just past the terminator of `line` (a view into file.bytes). A "\r\n" pair counts as
 /// one terminator only when the header itself uses "\r\n".
 size_t end_of_line(const FileBytes& file, std::string_view line, bool crlf) {
@@ -184,7 +205,11 @@ Header parse_header(const FileBytes& file) {
     const HeaderLine h(line);
     if (h.count == 0) continue;
     const std::string_view key = h.token[0];
-    if (key == "comment" || key == "obj_info") continue;
+    if (key == "comment") continue;
+    if (key == "obj_info") {
+      parse_obj_info(h, header);
+      continue;
+    }
     if (key == "end_header") {
       header.data_offset = end_of_line(file, line, crlf);
       header.data_line = n + 1;
@@ -337,13 +362,16 @@ class BinaryBody {
 };
 
 /// Reads every element of a binary body; vertex values go to `cloud`.
+/// The first camera row's values go to `camera` (one per property, NaN for lists).
 void read_binary(const FileBytes& file, const Header& header, const std::vector<Slot>& slots,
-                 Cloud& cloud, std::vector<std::string>* warnings) {
+                 Cloud& cloud, std::vector<double>& camera, std::vector<std::string>* warnings) {
   const bool big = header.encoding == Encoding::BinaryBig;
   BinaryBody body(file, header.data_offset, big == host_is_little_endian());
   for (const Element& e : header.elements) {
     const bool vertex = e.name == "vertex";
     for (uint64_t r = 0; r < e.count; ++r) {
+      const bool cam = e.name == "camera" && r == 0;
+      if (cam) camera.assign(e.props.size(), std::nan(""));
       for (size_t i = 0; i < e.props.size(); ++i) {
         const Property& p = e.props[i];
         if (p.is_list) {
@@ -351,6 +379,7 @@ void read_binary(const FileBytes& file, const Header& header, const std::vector<
         } else {
           const double v = body.scalar(p.type, e, r);
           if (vertex) store(cloud, slots[i], Eigen::Index(r), v);
+          if (cam) camera[i] = v;
         }
       }
     }
@@ -360,8 +389,10 @@ void read_binary(const FileBytes& file, const Header& header, const std::vector<
 }
 
 /// Reads one ascii row of `e` from `line`.
+/// With `values` (not null), every scalar goes there too (one per property, lists left as NaN).
 void read_ascii_row(const FileBytes& file, const Element& e, uint64_t r, std::string_view line,
-                    size_t line_no, const std::vector<Slot>* slots, Cloud& cloud) {
+                    size_t line_no, const std::vector<Slot>* slots, Cloud& cloud,
+                    std::vector<double>* values = nullptr) {
   Tokens tokens(line);
   std::string_view t;
   const auto fail = [&](const std::string& what) {
@@ -384,14 +415,17 @@ void read_ascii_row(const FileBytes& file, const Element& e, uint64_t r, std::st
       fail("value " + quote_token(t) + " is not a valid " + ply_type_name(p.type));
     if (p.type == ScalarType::Float32) v = double(float(v));  // the declared precision
     if (slots) store(cloud, (*slots)[i], Eigen::Index(r), v);
+    if (values) (*values)[i] = v;
   }
   if (!tokens.done()) fail("too many values");
 }
 
 /// Reads every element of an ascii body, one row per non-blank line.
-/// With `slots` null nothing is stored (a dry run that finds where a short file ends).
+/// With `slots` null nothing is stored (a dry run that finds where a short file ends). The first
+/// camera row's values go to `camera` when given.
 void read_ascii(const FileBytes& file, const Header& header, const std::vector<Slot>* slots,
-                Cloud& cloud, std::vector<std::string>* warnings) {
+                Cloud& cloud, std::vector<std::string>* warnings,
+                std::vector<double>* camera = nullptr) {
   LineCursor lines(file.bytes, header.data_offset, header.data_line);
   std::string_view line;
   for (const Element& e : header.elements) {
@@ -404,7 +438,9 @@ void read_ascii(const FileBytes& file, const Header& header, const std::vector<S
         input_error(file.path, "expected " + std::to_string(e.count) + " " + plural(e.name) +
                                    ", file ends after " + std::to_string(r) +
                                    at_line(lines.line_number()));
-      read_ascii_row(file, e, r, line, lines.line_number(), target, cloud);
+      const bool cam = camera && e.name == "camera" && r == 0;
+      if (cam) camera->assign(e.props.size(), std::nan(""));
+      read_ascii_row(file, e, r, line, lines.line_number(), target, cloud, cam ? camera : nullptr);
     }
   }
   size_t extra_lines = 0;
@@ -412,6 +448,45 @@ void read_ascii(const FileBytes& file, const Header& header, const std::vector<S
     if (!is_blank_line(line)) ++extra_lines;
   if (extra_lines > 0)
     warn(warnings, std::to_string(extra_lines) + " lines after the last element ignored");
+}
+
+/// The value of the camera property `name`, NaN when absent.
+double camera_value(const Header& header, const std::vector<double>& camera, const char* name) {
+  for (const Element& e : header.elements)
+    if (e.name == "camera") {
+      const int i = find_property(e, name);
+      return i < 0 || camera.empty() ? std::nan("") : camera[size_t(i)];
+    }
+  return std::nan("");
+}
+
+/// The grid (camera viewport or obj_info num_cols / num_rows, when they give the vertex count)
+/// and the sensor of the camera element (see the top of this file).
+void set_sensor(const FileBytes& file, const Header& header, const std::vector<double>& camera,
+                Cloud& cloud) {
+  const auto grid = [&](double w, double h) {
+    if (cloud.organized() || !(w >= 1 && h > 1) || w * h != double(cloud.size())) return;
+    cloud.grid_width = int64_t(w);
+    cloud.grid_height = int64_t(h);
+  };
+  grid(camera_value(header, camera, "viewportx"), camera_value(header, camera, "viewporty"));
+  grid(double(header.num_cols), double(header.num_rows));
+  if (camera.empty()) return;
+  const std::array<double, 3> t{camera_value(header, camera, "view_px"),
+                                camera_value(header, camera, "view_py"),
+                                camera_value(header, camera, "view_pz")};
+  if (std::isnan(t[0]) && std::isnan(t[1]) && std::isnan(t[2])) return;  // not PCL's camera
+  Eigen::Matrix3d r = Eigen::Matrix3d::Identity();
+  const char* axes[3][3] = {{"x_axisx", "x_axisy", "x_axisz"},
+                            {"y_axisx", "y_axisy", "y_axisz"},
+                            {"z_axisx", "z_axisy", "z_axisz"}};
+  for (int a = 0; a < 3; ++a)
+    for (int c = 0; c < 3; ++c) {
+      const double v = camera_value(header, camera, axes[a][c]);
+      if (!std::isnan(v) || a == c) r(a, c) = std::isnan(v) ? 1.0 : v;
+    }
+  const Sensor s = sensor_from_axes(file.path, t, r, "PLY camera");
+  if (cloud.organized() || !default_pose(s)) cloud.sensors.push_back(s);
 }
 
 }  // namespace
@@ -430,12 +505,14 @@ Cloud read_ply(const FileBytes& file, std::vector<std::string>* warnings) {
     input_error(file.path, too_big);
   }
   const std::vector<Slot> slots = plan_vertex(file, *vertex, cloud, warnings);
+  std::vector<double> camera;
   if (ascii)
-    read_ascii(file, header, &slots, cloud, warnings);
+    read_ascii(file, header, &slots, cloud, warnings, &camera);
   else
-    read_binary(file, header, slots, cloud, warnings);
+    read_binary(file, header, slots, cloud, camera, warnings);
+  set_sensor(file, header, camera, cloud);
   for (const Element& e : header.elements)
-    if (e.name != "vertex" && e.count > 0)
+    if (e.name != "vertex" && e.name != "camera" && e.count > 0)
       warn(warnings, e.name + " element (" + std::to_string(e.count) + " " + plural(e.name) +
                          ") not carried to the output");
   return cloud;
@@ -443,6 +520,48 @@ Cloud read_ply(const FileBytes& file, std::vector<std::string>* warnings) {
 
 // ---------------------------------------------------------------------------------------------
 // Writer
+
+namespace {
+
+/// PCL's camera element (see the top of this file): the header lines and the one row, for a
+/// cloud with a single sensor or a grid; "" otherwise.
+std::string camera_header(const Cloud& cloud) {
+  if (!single_sensor(cloud) && !cloud.organized()) return "";
+  std::string h = "element camera 1\n";
+  for (const char* name : {"view_px", "view_py", "view_pz", "x_axisx", "x_axisy", "x_axisz",
+                           "y_axisx", "y_axisy", "y_axisz", "z_axisx", "z_axisy", "z_axisz",
+                           "focal", "scalex", "scaley", "centerx", "centery"})
+    h += std::string("property float ") + name + "\n";
+  return h +
+         "property int viewportx\nproperty int viewporty\nproperty float k1\n"
+         "property float k2\n";
+}
+
+void camera_row(const Cloud& cloud, bool ascii, std::string& out) {
+  const Sensor* s = single_sensor(cloud);
+  const Sensor origin;
+  const Sensor& cam = s ? *s : origin;
+  std::vector<std::pair<double, ScalarType>> v;
+  for (int d = 0; d < 3; ++d) v.emplace_back(cam.position[d], ScalarType::Float32);
+  for (int a = 0; a < 3; ++a)
+    for (int c = 0; c < 3; ++c) v.emplace_back(cam.rotation(a, c), ScalarType::Float32);
+  for (int i = 0; i < 5; ++i) v.emplace_back(0.0, ScalarType::Float32);
+  const bool grid = cloud.organized();
+  v.emplace_back(grid ? double(cloud.grid_width) : double(cloud.size()), ScalarType::Int32);
+  v.emplace_back(grid ? double(cloud.grid_height) : 1.0, ScalarType::Int32);
+  for (int i = 0; i < 2; ++i) v.emplace_back(0.0, ScalarType::Float32);
+  for (size_t i = 0; i < v.size(); ++i) {
+    if (ascii) {
+      if (i > 0) out += ' ';
+      append_number(v[i].first, v[i].second, out);
+    } else {
+      encode_scalar_le(v[i].first, v[i].second, out);
+    }
+  }
+  if (ascii) out += '\n';
+}
+
+}  // namespace
 
 void write_ply(Sink& sink, const Cloud& cloud, bool ascii) {
   const char* const normal_names[3] = {"nx", "ny", "nz"};
@@ -452,8 +571,13 @@ void write_ply(Sink& sink, const Cloud& cloud, bool ascii) {
   out += " 1.0\ncomment written by nhnet\nelement vertex " + std::to_string(cloud.size()) + "\n";
   for (const Column& c : cols)
     out += std::string("property ") + ply_type_name(c.type) + " " + c.name + "\n";
-  out += "end_header\n";
+  const std::string camera = camera_header(cloud);
+  out += camera + "end_header\n";
   write_rows(sink, cols, cloud.size(), ascii, out);
+  if (camera.empty()) return;
+  std::string row;
+  camera_row(cloud, ascii, row);
+  sink.write(row);
 }
 
 }  // namespace nhnet::io_detail

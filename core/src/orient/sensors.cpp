@@ -18,9 +18,8 @@ void check_sensors(const Points& points, const OrientOptions& options) {
                          " sensor indices for " + std::to_string(points.rows()) + " points");
   for (const int32_t s : index)
     if (s < 0 || size_t(s) >= options.sensors.size())
-      throw InvalidOptions("orient sensors: sensor index " + std::to_string(s) +
-                           " out of range (" + std::to_string(options.sensors.size()) +
-                           " sensors)");
+      throw InvalidOptions("orient sensors: sensor index " + std::to_string(s) + " out of range (" +
+                           std::to_string(options.sensors.size()) + " sensors)");
 }
 
 void orient_sensors(const Points& points, Normals& normals, const OrientOptions& options,

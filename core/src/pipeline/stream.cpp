@@ -225,10 +225,11 @@ bool check_stream(const std::string& input, const std::string& output,
   const EstimateOptions& eo = options.estimate;
   detail::check_options(eo);
   if (eo.tiles.points <= 0) throw InvalidOptions("streaming needs tile points > 0");
-  if (options.orient.mode == OrientMode::Mst)
-    throw InvalidOptions(
-        "--orient mst needs the whole cloud in memory; with streaming use "
-        "none, keep or viewpoint X Y Z");
+  const OrientMode m = options.orient.mode;
+  if (m == OrientMode::Mst || m == OrientMode::Up || m == OrientMode::Sensors)
+    throw InvalidOptions("--orient " + std::string(to_string(m)) +
+                         " needs the whole cloud in memory; with streaming use "
+                         "auto, none, keep or viewpoint X Y Z");
   if (options.plan_sample < 1000 || options.variation_sample < 1000)
     throw InvalidOptions("plan and variation samples must be at least 1000 points");
   const bool ply = output_is_ply(output);
@@ -555,11 +556,19 @@ std::string ply_header(bool ascii, bool fits_float, int64_t points) {
          " z\nproperty float nx\nproperty float ny\nproperty float nz\nend_header\n";
 }
 
-/// The orientation used: Keep falls back to None (with a warning unless told not to) when the
-/// input has no normals.
+/// The orientation used: Auto is Keep when the input has normals, else None (an XYZ file names
+/// no sensor, and the MST needs the whole cloud); Keep falls back to None (with a warning unless
+/// told not to) when the input has no normals. Sets res.orient_source.
 OrientMode orient_mode(const StreamOptions& options, const XyzStream& in, const std::string& input,
                        StreamResult& res) {
   OrientMode mode = options.orient.mode;
+  res.orient_source = "requested";
+  if (mode == OrientMode::Auto) {
+    const bool normals = in.columns() >= 6;
+    res.orient_source =
+        normals ? "input normals" : "no sensor in an XYZ file, and mst needs the whole cloud";
+    return normals ? OrientMode::Keep : OrientMode::None;
+  }
   if (mode == OrientMode::Keep && in.columns() < 6) {
     if (options.warn_keep_without_normals)
       res.warnings.push_back("orient keep: " + input +
@@ -633,6 +642,7 @@ class OutputChunks {
     Points p = cp_.topRows(rows);
     Normals n = cn_.topRows(rows);
     OrientOptions oo = options_.orient;
+    oo.mode = mode_;
     oo.run = RunContext{options_.estimate.run.threads, {}};
     const OrientResult r =
         keep_ ? orient_normals(p, n, oo, ref_.topRows(rows)) : orient_normals(p, n, oo);

@@ -20,8 +20,9 @@ struct StreamOptions {
   /// The estimator and its options; `estimate.tiles.points` (> 0) is the points per tile.
   EstimateOptions estimate;
   /// Orientation, applied point by point while the output is written: None, Keep (the input's
-  /// normals, XYZ columns 4-6; None with a warning when the input has none) or Viewpoint. Mst
-  /// needs the whole cloud and is refused.
+  /// normals, XYZ columns 4-6; None with a warning when the input has none), Viewpoint, or Auto
+  /// (Keep when the input has normals, else None: an XYZ file names no sensor). Mst, Up and
+  /// Sensors need the whole cloud and are refused.
   OrientOptions orient;
   /// Folder for the temporary tile files (about 48 bytes per point); "" = the output's folder.
   std::string temp_dir;
@@ -53,6 +54,8 @@ struct StreamResult {
   /// Orientation used (Keep falls back to None when the input has no normals) and its counts
   /// (flipped / unoriented / invalid), summed over the written chunks.
   OrientMode orient_mode = OrientMode::None;
+  /// Why that orientation: "input normals", "requested", ... (as OrientPlan::source).
+  std::string orient_source;
   OrientResult orient;
   /// Non-fatal notes (non-finite points, duplicates, ...).
   std::vector<std::string> warnings;
@@ -62,8 +65,8 @@ struct StreamResult {
 /// normals tile by tile and writes `output` (.ply, or .xyz / .xyzn / .txt: x y z nx ny nz) in
 /// the input's point order, through a temporary file renamed at the end; failed points get NaN
 /// normals. `output` must not be `input`. Throws InputError (unreadable / malformed input, naming
-/// the file and line), InvalidOptions (a PLY / PCD input, Mst orientation, tiles.points <= 0, an
-/// unsupported output extension), OutputError, Cancelled.
+/// the file and line), InvalidOptions (a PLY / PCD input, Mst / Up / Sensors orientation,
+/// tiles.points <= 0, an unsupported output extension), OutputError, Cancelled.
 StreamResult estimate_stream(const std::string& input, const std::string& output,
                              const StreamOptions& options);
 
