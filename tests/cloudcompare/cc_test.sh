@@ -362,8 +362,8 @@ case_large_cloud() {
 # The same cloud, cancelled once the progress reaches 5 % (NHNET_PLUGIN_CANCEL_AT, the test hook
 # of the plugin's cancel path, which the GUI's Cancel button takes too): the command fails with
 # the cancel message, nothing is saved, and the core stopped within 3 s of the cancel (measured
-# 0.66 s in MeshLab's same test with this machine's 2 cores shared by ~20 busy processes; a core
-# that ignored the cancel would run on for a minute or more).
+# 0.21 s, and 0.66 s in MeshLab's same test, with this machine's 2 cores shared by ~20 busy
+# processes; a core that ignored the cancel would run on for a minute or more).
 case_large_cancel() {
   "$PY" "$MAKE" big big.ply "$LARGE_N"
   CC_ENV="NHNET_PLUGIN_CANCEL_AT=0.05" cc_timed -O big.ply -NHNET_NORMALS -METHOD pca \

@@ -154,8 +154,12 @@ if ml_run cam.ply cam_out.ply && grep -q "orientation viewpoint from sensor from
   share=$(/usr/bin/python3 "$MAKE" facing cam_out.ply 99999999 0.5 -0.3 1.2 | tail -n 1)
   ml_run room.ply room_out.ply
   mst=$(/usr/bin/python3 "$MAKE" facing room_out.ply 99999999 0.5 -0.3 1.2 | tail -n 1)
-  if awk -v s="$share" -v m="$mst" 'BEGIN { exit !(s >= 0.995 && m < 0.05) }'; then
-    pass "camera: $share of the normals face it (MST without the camera: $mst)"
+  # nhnet-cli reads the same camera element (PCL's and VCG's PLY camera): with no flags it must
+  # give the same signed normals (same bound as the defaults above).
+  "$CLI" estimate cam.ply cam_cli.ply --quiet --overwrite
+  if awk -v s="$share" -v m="$mst" 'BEGIN { exit !(s >= 0.995 && m < 0.05) }' &&
+    /usr/bin/python3 "$SRC/tests/cloudcompare/compare_normals.py" cam_out.ply cam_cli.ply --signed --max-deg 0.01; then
+    pass "camera: $share of the normals face it (MST without the camera: $mst), as nhnet-cli's defaults"
   else
     fail "camera: $share face it (want >= 0.995), MST without it $mst (want < 0.05)"
   fi
