@@ -35,6 +35,8 @@ PKGS=(
   cloudcompare
   # the plugins' screenshots (docs/plugins.md) (plugins/meshlab/screenshots.sh, scripts/cc-screenshots.sh)
   xdotool imagemagick
+  # the plugins' large-cloud tests (label large) measure peak memory with /usr/bin/time -v
+  time
   # NH-Net: training (python3-torch) and inference in the core (libtorch-dev, same 1.13)
   python3-torch libtorch-dev
 )

@@ -1,33 +1,38 @@
 // Thin adapter between ccPointCloud and the nhnet core (see NhnetAdapter.h).
 #include "NhnetAdapter.h"
 
+#include "../common/polled_run.hpp"
+
 // CloudCompare
+#include <ccHObjectCaster.h>
 #include <ccPointCloud.h>
 #include <ccProgressDialog.h>
+#include <ccSensor.h>
 
 // Qt
 #include <QCoreApplication>
 
-#include <atomic>
+#include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <future>
 #include <limits>
-#include <mutex>
 #include <new>
 
 namespace nhcc {
 
 namespace {
 
-/// The core's estimators offered by the plugin (GUI list and -METHOD), the core's default first.
-/// NH-Net: add its nhnet::Method here.
-const nhnet::Method kMethods[] = {nhnet::Method::Mfps, nhnet::Method::Pca, nhnet::Method::NhNet};
+/// The core's estimators offered by the plugin (GUI list and -METHOD).
+const nhnet::Method kMethods[] = {nhnet::Method::NhNet, nhnet::Method::Mfps, nhnet::Method::Pca};
 
 /// Methods that read a TorchScript model (the model setting is ignored by the others).
 bool uses_model(nhnet::Method m) { return m == nhnet::Method::NhNet; }
 
-const char* const kOrientNames[] = {"auto", "keep", "none", "mst", "viewpoint"};
+/// The orientations offered (GUI list and -ORIENT). Sensors is reached through Auto only (it
+/// needs a sensor per point, which the cloud's scan grids give).
+const nhnet::OrientMode kOrients[] = {nhnet::OrientMode::Auto,      nhnet::OrientMode::Keep,
+                                      nhnet::OrientMode::Viewpoint, nhnet::OrientMode::Mst,
+                                      nhnet::OrientMode::Up,        nhnet::OrientMode::None};
 
 std::string str(const QString& s) { return s.toStdString(); }
 
@@ -49,6 +54,13 @@ std::vector<int> parse_scales(const QString& text) {
   return out;
 }
 
+/// {} -> "auto", {50, 100, 150} -> "50,100,150" (parse_scales' inverse).
+QString scales_text(const std::vector<int>& scales) {
+  QStringList parts;
+  for (int v : scales) parts << QString::number(v);
+  return parts.isEmpty() ? QString("auto") : parts.join(',');
+}
+
 struct Prepared {
   nhnet::EstimateOptions options;
   QStringList warnings;
@@ -67,6 +79,9 @@ Prepared prepare(const NormalsSettings& s) {
     p.warnings << QString("model file ignored: method %1 uses no model").arg(s.method);
   if (uses_model(p.options.method))
     p.options.model.path = str(s.model.trimmed());  // empty = shipped
+  if (!s.fallback_why.isEmpty() && p.options.method != nhnet::Method::NhNet)
+    p.warnings << QString("method %1 (%2; method nhnet needs it)")
+                      .arg(nhnet::to_string(p.options.method), s.fallback_why);
   return p;
 }
 
@@ -108,6 +123,88 @@ void store_normals(ccPointCloud& cloud, const nhnet::Normals& normals) {
   cloud.showNormals(true);
 }
 
+Eigen::Vector3d vec(const CCVector3d& v) { return Eigen::Vector3d(v.x, v.y, v.z); }
+
+/// The 3 x 3 rotation of a column-major 4 x 4 matrix (ccGLMatrix / ccGLMatrixd).
+template <class T>
+Eigen::Matrix3d rotation_of(const T* m) {
+  Eigen::Matrix3d r;
+  for (int c = 0; c < 3; ++c)
+    for (int row = 0; row < 3; ++row) r(row, c) = double(m[4 * c + row]);
+  return r;
+}
+
+/// The cloud's scan grids (PTX, E57 and other gridded loaders; merged scans keep one each): one
+/// sensor per grid at the grid's sensor position, and per point the grid that holds it. False
+/// (nothing added) when there are none or they do not cover every point.
+bool add_grid_sensors(const ccPointCloud& cc, nhnet::Cloud& cloud) {
+  if (cc.gridCount() == 0) return false;
+  std::vector<int32_t> index(cc.size(), -1);
+  std::vector<nhnet::Sensor> sensors;
+  for (size_t g = 0; g < cc.gridCount(); ++g) {
+    const ccPointCloud::Grid::Shared& grid = cc.grid(g);
+    if (!grid || grid->indexes.size() != size_t(grid->w) * grid->h) return false;
+    for (int i : grid->indexes)
+      if (i >= 0 && unsigned(i) < cc.size()) index[size_t(i)] = int32_t(sensors.size());
+    nhnet::Sensor s;
+    s.position = vec(grid->sensorPosition.getTranslationAsVec3D());
+    s.rotation = rotation_of(grid->sensorPosition.data());
+    s.source =
+        QString("CloudCompare scan grid %1 of %2").arg(g + 1).arg(cc.gridCount()).toStdString();
+    sensors.push_back(s);
+  }
+  if (std::find(index.begin(), index.end(), -1) != index.end()) return false;
+  cloud.sensors = std::move(sensors);
+  if (cloud.sensors.size() > 1) cloud.sensor_index = std::move(index);
+  return true;
+}
+
+/// The sensor objects under the cloud (ccGBLSensor from the PTX / E57 / PCD loaders,
+/// ccCameraSensor): a single one took every point. Several without a scan grid say nothing about
+/// which point each took: none is used then (a warning says so).
+void add_child_sensors(ccPointCloud& cc, nhnet::Cloud& cloud, QStringList& warnings) {
+  std::vector<ccSensor*> found;
+  for (unsigned i = 0; i < cc.getChildrenNumber(); ++i)
+    if (ccSensor* s = ccHObjectCaster::ToSensor(cc.getChild(i))) found.push_back(s);
+  if (found.size() > 1)
+    warnings << QString(
+                    "%1 sensors under the cloud but no scan grid saying which point each took: "
+                    "none used")
+                    .arg(found.size());
+  if (found.size() != 1) return;
+  ccIndexedTransformation t;
+  if (!found[0]->getActiveAbsoluteTransformation(t)) return;
+  nhnet::Sensor s;
+  s.position = vec(CCVector3d::fromArray(t.getTranslationAsVec3D().u));
+  s.rotation = rotation_of(t.data());
+  s.source = ("CloudCompare sensor '" + found[0]->getName() + "'").toStdString();
+  cloud.sensors.push_back(s);
+}
+
+/// The points, the normals when `with_normals`, and the sensors of a CloudCompare cloud.
+nhnet::Cloud cloud_in(ccPointCloud& cc, bool with_normals, QStringList& warnings) {
+  nhnet::Cloud cloud;
+  cloud.points = copy_points(cc);
+  if (with_normals) cloud.normals = copy_normals(cc);
+  if (!add_grid_sensors(cc, cloud)) add_child_sensors(cc, cloud, warnings);
+  return cloud;
+}
+
+/// The settings' orientation made concrete for this cloud (auto: nhnet::resolve_orientation).
+nhnet::OrientPlan plan_orientation(const NormalsSettings& s, const nhnet::Cloud& cloud,
+                                   QStringList& warnings) {
+  nhnet::OrientOptions requested;
+  requested.mode = s.orient;
+  requested.run.threads = s.threads;
+  requested.viewpoint = Eigen::Vector3d(s.viewpoint[0], s.viewpoint[1], s.viewpoint[2]);
+  nhnet::OrientPlan plan = nhnet::resolve_orientation(cloud, requested);
+  if (plan.options.mode == nhnet::OrientMode::Keep && !cloud.has_normals()) {
+    warnings << "orientation keep: the cloud has no normals, so the signs stay arbitrary";
+    plan.options.mode = nhnet::OrientMode::None;
+  }
+  return plan;
+}
+
 nhnet::ProgressCallback narrow(const nhnet::ProgressCallback& cb, double begin, double end) {
   if (!cb) return cb;
   return [cb, begin, end](double f, const std::string& stage) {
@@ -134,6 +231,16 @@ nhnet::EstimateResult run_estimate(const nhnet::Points& pts, nhnet::EstimateOpti
   return nhnet::estimate_normals(pts, opt);
 }
 
+/// ", orient MODE from SOURCE (F flipped, C components)".
+QString describe_orientation(nhnet::OrientMode mode, const std::string& source,
+                             const nhnet::OrientResult& ores) {
+  QString text = QString(", orient %1 from %2").arg(nhnet::to_string(mode), source.c_str());
+  if (mode == nhnet::OrientMode::None) return text;
+  text += QString(" (%1 flipped").arg(ores.flipped);
+  if (mode == nhnet::OrientMode::Mst) text += QString(", %1 components").arg(ores.components);
+  return text + ")";
+}
+
 QString describe(const nhnet::EstimateResult& res, nhnet::Method method, Eigen::Index n) {
   return QString("%1 points, %2 failed, method %3, k %4, scales %5, noise ratio %6, %7 candidates")
       .arg(n)
@@ -148,8 +255,13 @@ QString describe(const nhnet::EstimateResult& res, nhnet::Method method, Eigen::
 }  // namespace
 
 NormalsSettings::NormalsSettings()
-    : method(nhnet::to_string(nhnet::EstimateOptions{}.method)),
-      threads(nhnet::EstimateOptions{}.run.threads) {}
+    : scales(scales_text(nhnet::MfpsOptions{}.scales)),
+      orient(nhnet::kDefaultOrientMode),
+      threads(nhnet::EstimateOptions{}.run.threads) {
+  method = default_method_name(&fallback_why);  // fallback_why is constructed by now
+  const Eigen::Vector3d vp = nhnet::OrientOptions{}.viewpoint;
+  viewpoint = {{vp.x(), vp.y(), vp.z()}};
+}
 
 DenoiseSettings::DenoiseSettings() {
 #if NHNET_CC_HAS_DENOISE
@@ -168,18 +280,25 @@ QStringList method_names() {
   return out;
 }
 
+QString default_method_name(QString* fallback_why) {
+  std::string why;
+  const nhnet::Method m = nhnet::default_method(&why);
+  if (fallback_why) *fallback_why = QString::fromStdString(why);
+  return nhnet::to_string(m);
+}
+
 QStringList orient_names() {
   QStringList out;
-  for (const char* n : kOrientNames) out << n;
+  for (nhnet::OrientMode m : kOrients) out << nhnet::to_string(m);
   return out;
 }
 
-Orient orient_from_string(const QString& name) {
+nhnet::OrientMode orient_from_string(const QString& name) {
   const int i = orient_names().indexOf(name.trimmed().toLower());
   if (i < 0)
     throw nhnet::InvalidOptions("unknown orientation '" + str(name) + "' (expected " +
                                 str(orient_names().join(", ")) + ")");
-  return Orient(i);
+  return kOrients[i];
 }
 
 bool method_uses_model(const QString& name) {
@@ -191,40 +310,26 @@ bool method_uses_model(const QString& name) {
 bool denoise_available() { return NHNET_CC_HAS_DENOISE != 0; }
 
 Outcome estimate_cloud_normals(ccPointCloud& cloud, const NormalsSettings& settings,
-                               ccProgressDialog* dialog) {
+                               const RunUi& ui) {
   Prepared p = prepare(settings);
   Outcome out;
   out.warnings = p.warnings;
-  nhnet::OrientOptions orient;
-  orient.run.threads = settings.threads;
-  orient.viewpoint =
-      Eigen::Vector3d(settings.viewpoint[0], settings.viewpoint[1], settings.viewpoint[2]);
-  switch (settings.orient) {
-    case Orient::Auto:
-      orient.mode = cloud.hasNormals() ? nhnet::OrientMode::Keep : nhnet::OrientMode::Mst;
-      break;
-    case Orient::Keep: orient.mode = nhnet::OrientMode::Keep; break;
-    case Orient::None: orient.mode = nhnet::OrientMode::None; break;
-    case Orient::Mst: orient.mode = nhnet::OrientMode::Mst; break;
-    case Orient::Viewpoint: orient.mode = nhnet::OrientMode::Viewpoint; break;
-  }
-  if (orient.mode == nhnet::OrientMode::Keep && !cloud.hasNormals()) {
-    out.warnings << "orientation keep: the cloud has no normals, so the signs stay arbitrary";
-    orient.mode = nhnet::OrientMode::None;
-  }
+  // The cloud's normals serve keep (asked, or chosen by auto), and only those.
+  const bool keep_asked =
+      settings.orient == nhnet::OrientMode::Keep || settings.orient == nhnet::OrientMode::Auto;
+  const nhnet::Cloud in = cloud_in(cloud, keep_asked && cloud.hasNormals(), out.warnings);
+  const nhnet::OrientPlan plan = plan_orientation(settings, in, out.warnings);
+  nhnet::OrientOptions orient = plan.options;
   const bool orienting = orient.mode != nhnet::OrientMode::None;
 
-  const nhnet::Points pts = copy_points(cloud);
-  const nhnet::Normals reference =
-      orient.mode == nhnet::OrientMode::Keep ? copy_normals(cloud) : nhnet::Normals();
   nhnet::EstimateResult res;
   nhnet::OrientResult ores;
-  run_with_progress(dialog, [&](const nhnet::ProgressCallback& cb) {
+  run_with_progress(ui, [&](const nhnet::ProgressCallback& cb) {
     const double split = orienting ? 0.85 : 1.0;
-    res = run_estimate(pts, p.options, narrow(cb, 0, split));
+    res = run_estimate(in.points, p.options, narrow(cb, 0, split));
     if (!orienting) return;
     orient.run.progress = narrow(cb, split, 1);
-    ores = nhnet::orient_normals(pts, res.normals, orient, reference);
+    ores = nhnet::orient_normals(in.points, res.normals, orient, in.normals);
   });
   out.warnings << to_qt(res.warnings);
   if (ores.unoriented > 0)
@@ -232,31 +337,26 @@ Outcome estimate_cloud_normals(ccPointCloud& cloud, const NormalsSettings& setti
                         .arg(nhnet::to_string(orient.mode))
                         .arg(ores.unoriented);
   store_normals(cloud, res.normals);
-
-  out.summary = describe(res, p.options.method, pts.rows()) +
-                QString(", orient %1").arg(nhnet::to_string(orient.mode));
-  if (orienting) out.summary += QString(" (%1 flipped").arg(ores.flipped);
-  if (orient.mode == nhnet::OrientMode::Mst)
-    out.summary += QString(", %1 components").arg(ores.components);
-  if (orienting) out.summary += ")";
+  out.summary = describe(res, p.options.method, in.points.rows()) +
+                describe_orientation(orient.mode, plan.source, ores);
   return out;
 }
 
-Outcome denoise_cloud(ccPointCloud& cloud, const DenoiseSettings& settings,
-                      ccProgressDialog* dialog) {
+Outcome denoise_cloud(ccPointCloud& cloud, const DenoiseSettings& settings, const RunUi& ui) {
 #if NHNET_CC_HAS_DENOISE
   if (settings.iterations < 1) throw nhnet::InvalidOptions("iterations must be >= 1");
   if (!(settings.radius >= 0) || !std::isfinite(settings.radius))
     throw nhnet::InvalidOptions("radius must be >= 0 (0 = chosen from the point spacing)");
   Outcome out;
   QString which = settings.normals.trimmed().toLower();
-  if (which == "auto") which = cloud.hasNormals() ? QString("input") : method_names().front();
+  if (which == "auto") which = cloud.hasNormals() ? QString("input") : settings.estimate.method;
   const bool from_input = which == "input";
   Prepared p;
   if (!from_input) {
     NormalsSettings es = settings.estimate;
     es.method = which;
-    es.orient = Orient::None;  // the denoiser does not need signs
+    es.orient = nhnet::OrientMode::None;  // the denoiser does not need signs
+    if (which != settings.estimate.method) es.fallback_why.clear();  // chosen, not the default
     p = prepare(es);
     out.warnings << p.warnings;
   } else if (!cloud.hasNormals()) {
@@ -274,7 +374,7 @@ Outcome denoise_cloud(ccPointCloud& cloud, const DenoiseSettings& settings,
   nhnet::Normals normals = from_input ? copy_normals(cloud) : nhnet::Normals();
   nhnet::EstimateResult est;
   nhnet::DenoiseResult res;
-  run_with_progress(dialog, [&](const nhnet::ProgressCallback& cb) {
+  run_with_progress(ui, [&](const nhnet::ProgressCallback& cb) {
     double split = 0;
     if (!from_input) {
       split = 0.5;
@@ -312,57 +412,72 @@ Outcome denoise_cloud(ccPointCloud& cloud, const DenoiseSettings& settings,
 #else
   (void)cloud;
   (void)settings;
-  (void)dialog;
+  (void)ui;
   throw nhnet::InvalidOptions(
       "normal-guided denoise is not in this build of nhnet: the core's denoise stage "
       "(nhnet/denoise/denoise.hpp) was not found when the plugin was built");
 #endif
 }
 
-void run_with_progress(ccProgressDialog* dialog,
-                       const std::function<void(const nhnet::ProgressCallback&)>& work) {
-  if (!dialog) {
-    work(nhnet::ProgressCallback());
-    return;
+namespace {
+
+/// Shows progress in the dialog; false once its Cancel button was pressed.
+bool poll_dialog(ccProgressDialog& dialog, double f, const std::string& stage, std::string& shown) {
+  if (stage != shown) {
+    dialog.setInfo(QString::fromStdString(stage));
+    shown = stage;
   }
-  std::atomic<bool> cancel{false};
-  std::mutex mutex;
-  double fraction = 0;
-  std::string stage;
-  const nhnet::ProgressCallback cb = [&](double f, const std::string& s) {
-    {
-      std::lock_guard<std::mutex> lock(mutex);
-      fraction = f;
-      stage = s;
-    }
-    return !cancel.load();
-  };
-  // Modal: while the worker runs, nothing else in CloudCompare can delete or edit the cloud.
-  dialog->setWindowModality(Qt::ApplicationModal);
-  dialog->setRange(0, 100);
-  dialog->setValue(0);
-  dialog->show();
+  dialog.setValue(int(std::lround(100 * f)));
   QCoreApplication::processEvents();
-  std::future<void> done = std::async(std::launch::async, [&] { work(cb); });
+  return !dialog.wasCanceled();
+}
+
+/// Prints "[NH-Net] 40 % (stage)" each time the progress passes another 10 %.
+void poll_console(const RunUi& ui, double f, const std::string& stage, int& printed) {
+  const int tenth = int(f * 10);
+  if (!ui.print || tenth <= printed) return;
+  printed = tenth;
+  ui.print(QString("[NH-Net] %1 % (%2)").arg(10 * tenth).arg(QString::fromStdString(stage)));
+}
+
+void show_modal(ccProgressDialog& dialog) {
+  // Modal: while the worker runs, nothing else in CloudCompare can delete or edit the cloud.
+  dialog.setWindowModality(Qt::ApplicationModal);
+  dialog.setRange(0, 100);
+  dialog.setValue(0);
+  dialog.show();
+  QCoreApplication::processEvents();
+}
+
+}  // namespace
+
+void run_with_progress(const RunUi& ui,
+                       const std::function<void(const nhnet::ProgressCallback&)>& work) {
+  if (ui.dialog) show_modal(*ui.dialog);
+  const double cancel_at = nhplugin::test_cancel_at();
   std::string shown;
-  while (done.wait_for(std::chrono::milliseconds(30)) != std::future_status::ready) {
-    double f;
-    std::string s;
-    {
-      std::lock_guard<std::mutex> lock(mutex);
-      f = fraction;
-      s = stage;
-    }
-    if (s != shown) {
-      dialog->setInfo(QString::fromStdString(s));
-      shown = s;
-    }
-    if (!cancel.load()) dialog->setValue(int(std::lround(100 * std::clamp(f, 0.0, 1.0))));
-    QCoreApplication::processEvents();
-    if (dialog->wasCanceled()) cancel = true;
+  int printed = 0;
+  using Clock = std::chrono::steady_clock;
+  Clock::time_point asked;
+  const nhplugin::Poll poll = [&](double f, const std::string& stage) {
+    poll_console(ui, f, stage, printed);
+    const bool go = (!ui.dialog || poll_dialog(*ui.dialog, f, stage, shown)) && f < cancel_at;
+    if (!go) asked = Clock::now();
+    return go;
+  };
+  try {
+    nhplugin::run_polled(work, poll);
+  } catch (const nhnet::Cancelled&) {
+    if (ui.dialog) ui.dialog->stop();
+    const std::chrono::duration<double> delay = Clock::now() - asked;
+    if (ui.print)
+      ui.print(QString("[NH-Net] stopped %1 s after the cancel").arg(delay.count(), 0, 'f', 2));
+    throw;
+  } catch (...) {
+    if (ui.dialog) ui.dialog->stop();
+    throw;
   }
-  dialog->stop();
-  done.get();  // rethrows the worker's exception (nhnet::Cancelled after a cancel)
+  if (ui.dialog) ui.dialog->stop();
 }
 
 QString guarded(const std::function<void()>& fn, bool* cancelled) {

@@ -57,6 +57,7 @@ void parse_options(ccCommandLineInterface& cmd, const std::function<bool(const Q
 bool normals_option(ccCommandLineInterface& cmd, const QString& name, NormalsSettings& s) {
   if (name == "METHOD") {
     s.method = take_value(cmd, "METHOD").toLower();
+    s.fallback_why.clear();  // chosen, not the default: no fallback warning
   } else if (name == "SCALES") {
     s.scales = take_value(cmd, "SCALES");
   } else if (name == "THREADS") {
@@ -71,14 +72,17 @@ bool normals_option(ccCommandLineInterface& cmd, const QString& name, NormalsSet
 
 /// Runs `fn` on every loaded cloud, saves each (unless -AUTO_SAVE OFF); false on the first error.
 bool for_each_cloud(ccCommandLineInterface& cmd, const char* command, const char* suffix,
-                    const std::function<Outcome(ccPointCloud&, ccProgressDialog*)>& fn) {
+                    const std::function<Outcome(ccPointCloud&, const RunUi&)>& fn) {
   if (cmd.clouds().empty())
     return cmd.error(
         QString("[NH-Net] -%1: no cloud loaded (open one first with -O FILE)").arg(command));
   for (CLCloudDesc& desc : cmd.clouds()) {
     if (!desc.pc) continue;
     Outcome out;
-    const QString error = guarded([&] { out = fn(*desc.pc, cmd.progressDialog()); });
+    RunUi ui;
+    ui.dialog = cmd.progressDialog();  // none in -SILENT runs: progress goes to the console
+    ui.print = [&cmd](const QString& line) { cmd.print(line); };
+    const QString error = guarded([&] { out = fn(*desc.pc, ui); });
     if (!error.isEmpty())
       return cmd.error(QString("[NH-Net] -%1 on '%2': %3").arg(command, desc.basename, error));
     for (const QString& w : out.warnings)
@@ -112,14 +116,14 @@ bool CommandNormals::process(ccCommandLineInterface& cmd) {
       if (normals_option(cmd, name, s)) return true;
       if (name != "ORIENT") return false;
       s.orient = orient_from_string(take_value(cmd, "ORIENT"));
-      if (s.orient == Orient::Viewpoint)
+      if (s.orient == nhnet::OrientMode::Viewpoint)
         for (double& v : s.viewpoint) v = take_number<double>(cmd, "ORIENT viewpoint");
       return true;
     });
   });
   if (!ok) return false;
-  return for_each_cloud(cmd, kNormals, "NHNET_NORMALS", [&](ccPointCloud& c, ccProgressDialog* d) {
-    return estimate_cloud_normals(c, s, d);
+  return for_each_cloud(cmd, kNormals, "NHNET_NORMALS", [&](ccPointCloud& c, const RunUi& ui) {
+    return estimate_cloud_normals(c, s, ui);
   });
 }
 
@@ -145,9 +149,8 @@ bool CommandDenoise::process(ccCommandLineInterface& cmd) {
     });
   });
   if (!ok) return false;
-  return for_each_cloud(cmd, kDenoise, "NHNET_DENOISED", [&](ccPointCloud& c, ccProgressDialog* d) {
-    return denoise_cloud(c, s, d);
-  });
+  return for_each_cloud(cmd, kDenoise, "NHNET_DENOISED",
+                        [&](ccPointCloud& c, const RunUi& ui) { return denoise_cloud(c, s, ui); });
 }
 
 }  // namespace nhcc

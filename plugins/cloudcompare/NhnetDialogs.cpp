@@ -46,8 +46,9 @@ EstimateDialog::EstimateDialog(const NormalsSettings& initial, QWidget* parent) 
   method_->addItems(method_names());
   method_->setCurrentText(initial.method);
   method_->setToolTip(
-      "mfps: PCA on smooth points, multi-scale patch selection near sharp "
-      "features (default). pca: plain PCA.");
+      "nhnet: MFPS refined by the learned model (the default when its model is installed). "
+      "mfps: PCA on smooth points, multi-scale patch selection near sharp features. "
+      "pca: plain PCA.");
   form->addRow("Method", method_);
 
   scales_ = new QLineEdit(initial.scales, this);
@@ -59,11 +60,13 @@ EstimateDialog::EstimateDialog(const NormalsSettings& initial, QWidget* parent) 
   orient_ = new QComboBox(this);
   const QStringList names = orient_names();
   orient_->addItems(names);
-  orient_->setCurrentIndex(int(initial.orient));
+  orient_->setCurrentText(nhnet::to_string(initial.orient));
   orient_->setToolTip(
-      "auto: keep the cloud's signs if it has normals, MST otherwise; mst: "
-      "consistent signs over each connected part (outward on closed surfaces); "
-      "viewpoint: towards the sensor position below");
+      "auto (default): keep the cloud's signs if it has normals, else towards the scanner of "
+      "each point when the cloud has scan grids or a sensor (PTX, E57...), else MST; "
+      "keep: agree with the cloud's normals; viewpoint: towards the position below; "
+      "mst: consistent signs over each connected part (outward on closed surfaces); "
+      "up: facing +z (airborne scans); none: arbitrary signs");
   form->addRow("Orientation", orient_);
 
   auto* vp = new QHBoxLayout;
@@ -104,16 +107,17 @@ void EstimateDialog::updateEnabled() {
   const bool model = method_uses_model(method_->currentText());
   model_->setEnabled(model);
   browse_->setEnabled(model);
-  const bool vp = orient_->currentIndex() == int(Orient::Viewpoint);
+  const bool vp = orient_->currentText() == nhnet::to_string(nhnet::OrientMode::Viewpoint);
   for (auto* box : viewpoint_) box->setEnabled(vp);
-  scales_->setEnabled(method_->currentText() != "pca");
+  scales_->setEnabled(method_->currentText() != nhnet::to_string(nhnet::Method::Pca));
 }
 
 NormalsSettings EstimateDialog::settings() const {
   NormalsSettings s;
+  if (method_->currentText() != s.method) s.fallback_why.clear();  // chosen, not the default
   s.method = method_->currentText();
   s.scales = scales_->text();
-  s.orient = Orient(orient_->currentIndex());
+  s.orient = orient_from_string(orient_->currentText());
   for (size_t i = 0; i < 3; ++i) s.viewpoint[i] = viewpoint_[i]->value();
   s.threads = threads_->value();
   s.model = model_->text().trimmed();

@@ -28,8 +28,8 @@ QList<QAction*> NhnetPlugin::getActions() {
   if (!estimateAction_) {
     estimateAction_ = new QAction("Estimate normals (NH-Net)", this);
     estimateAction_->setToolTip(
-        "Estimate normals of the selected clouds (MFPS / PCA; "
-        "sharp features kept)");
+        "Estimate normals of the selected clouds (NH-Net / MFPS / PCA; sharp features kept; "
+        "signs towards the cloud's scanner when it has one)");
     estimateAction_->setIcon(getIcon());
     connect(estimateAction_, &QAction::triggered, this, &NhnetPlugin::estimateNormals);
 
@@ -64,7 +64,7 @@ std::vector<ccPointCloud*> NhnetPlugin::selectedClouds() const {
 
 void NhnetPlugin::forEachCloud(
     const QString& what, const std::vector<ccPointCloud*>& clouds,
-    const std::function<nhcc::Outcome(ccPointCloud&, ccProgressDialog*)>& fn) {
+    const std::function<nhcc::Outcome(ccPointCloud&, const nhcc::RunUi&)>& fn) {
   for (size_t i = 0; i < clouds.size(); ++i) {
     ccPointCloud* cloud = clouds[i];
     ccProgressDialog progress(true, m_app->getMainWindow());
@@ -72,7 +72,9 @@ void NhnetPlugin::forEachCloud(
         QString("NH-Net %1: %2 (%3/%4)").arg(what, cloud->getName()).arg(i + 1).arg(clouds.size()));
     nhcc::Outcome out;
     bool cancelled = false;
-    const QString error = nhcc::guarded([&] { out = fn(*cloud, &progress); }, &cancelled);
+    nhcc::RunUi ui;
+    ui.dialog = &progress;
+    const QString error = nhcc::guarded([&] { out = fn(*cloud, ui); }, &cancelled);
     const QString name = QString("[NH-Net] %1 '%2': ").arg(what, cloud->getName());
     if (!error.isEmpty()) {
       m_app->dispToConsole(name + error, cancelled ? ccMainAppInterface::WRN_CONSOLE_MESSAGE
@@ -94,8 +96,8 @@ void NhnetPlugin::estimateNormals() {
   nhcc::EstimateDialog dlg(normals_, m_app->getMainWindow());
   if (!dlg.exec()) return;
   normals_ = dlg.settings();
-  forEachCloud("normals", clouds, [this](ccPointCloud& cloud, ccProgressDialog* progress) {
-    nhcc::Outcome out = nhcc::estimate_cloud_normals(cloud, normals_, progress);
+  forEachCloud("normals", clouds, [this](ccPointCloud& cloud, const nhcc::RunUi& ui) {
+    nhcc::Outcome out = nhcc::estimate_cloud_normals(cloud, normals_, ui);
     cloud.prepareDisplayForRefresh_recursive();
     return out;
   });
@@ -116,17 +118,17 @@ void NhnetPlugin::denoise() {
   if (initial.normals == "auto") {
     bool allHaveNormals = true;
     for (ccPointCloud* c : clouds) allHaveNormals = allHaveNormals && c->hasNormals();
-    initial.normals = allHaveNormals ? QString("input") : nhcc::method_names().front();
+    initial.normals = allHaveNormals ? QString("input") : initial.estimate.method;
   }
   nhcc::DenoiseDialog dlg(initial, m_app->getMainWindow());
   if (!dlg.exec()) return;
   denoise_ = dlg.settings();
-  forEachCloud("denoise", clouds, [this](ccPointCloud& cloud, ccProgressDialog* progress) {
+  forEachCloud("denoise", clouds, [this](ccPointCloud& cloud, const nhcc::RunUi& ui) {
     // The result is a new cloud next to the input, which stays as it was (hidden).
     std::unique_ptr<ccPointCloud> result(cloud.cloneThis());
     if (!result) throw std::bad_alloc();
     result->setName(cloud.getName() + ".denoised");
-    nhcc::Outcome out = nhcc::denoise_cloud(*result, denoise_, progress);
+    nhcc::Outcome out = nhcc::denoise_cloud(*result, denoise_, ui);
     cloud.setEnabled(false);
     m_app->addToDB(result.release());
     return out;

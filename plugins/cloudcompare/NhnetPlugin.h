@@ -35,7 +35,7 @@ class NhnetPlugin : public QObject, public ccStdPluginInterface {
   /// Runs `fn` on every cloud with its own progress dialog (Cancel stops the remaining clouds
   /// too), behind nhcc::guarded; errors, warnings and summaries go to the console.
   void forEachCloud(const QString& what, const std::vector<ccPointCloud*>& clouds,
-                    const std::function<nhcc::Outcome(ccPointCloud&, ccProgressDialog*)>& fn);
+                    const std::function<nhcc::Outcome(ccPointCloud&, const nhcc::RunUi&)>& fn);
 
   QAction* estimateAction_ = nullptr;
   QAction* denoiseAction_ = nullptr;

@@ -3,11 +3,20 @@
 // only written to after the core call succeeded, so a failed run leaves it untouched.
 #include "filter_nhnet.h"
 
+#include "../common/polled_run.hpp"
 #include "nhnet/denoise/denoise.hpp"
 #include "nhnet/errors.hpp"
+#include "nhnet/io/cloud.hpp"
+#include "nhnet/orient/auto.hpp"
 #include "nhnet/orient/orient.hpp"
 #include "nhnet/pipeline/estimate.hpp"
 
+#include <QApplication>
+#include <QMainWindow>
+#include <QProgressDialog>
+
+#include <chrono>
+#include <memory>
 #include <new>
 #include <string>
 #include <vector>
@@ -21,28 +30,31 @@ struct Choice {
   const char* label;
 };
 
-// The estimators offered, in menu order (the first is the default). A method the core gains
-// is one more line here.
+// The estimators offered, in menu order (default: the core's, nhnet::default_method()). A method
+// the core gains is one more line here.
 const Choice<nhnet::Method> kMethods[] = {
     {nhnet::Method::Mfps, "MFPS (PCA + multi-scale patch selection near features)"},
     {nhnet::Method::Pca, "PCA"},
     {nhnet::Method::NhNet, "NH-Net (MFPS refined by the learned model; slower)"},
 };
 
-// Orientation choices, in menu order. Default: keep when the layer has vertex normals (a mesh's
-// face-based ones, or a cloud's loaded ones), else MST (the core's default).
+// Orientation choices, in menu order (scripts name them by index: new ones go at the end).
+// Default: the core's, auto (nhnet::resolve_orientation: the current vertex normals, else the
+// mesh's camera, else MST).
 const Choice<nhnet::OrientMode> kOrientations[] = {
     {nhnet::OrientMode::Keep, "keep: agree with the current vertex normals"},
     {nhnet::OrientMode::Viewpoint, "viewpoint: towards the viewpoint below"},
     {nhnet::OrientMode::Mst, "MST: propagated over the neighbour graph (Hoppe 1992)"},
     {nhnet::OrientMode::None, "none: arbitrary sign"},
+    {nhnet::OrientMode::Auto, "auto: vertex normals, else the mesh's camera, else MST"},
+    {nhnet::OrientMode::Up, "up: facing +z (airborne scans)"},
 };
 
 // Which normals guide the denoiser, in menu order (the first is the default).
 enum class GuideNormals { Current, Estimate };
 const Choice<GuideNormals> kGuides[] = {
     {GuideNormals::Current, "current vertex normals"},
-    {GuideNormals::Estimate, "estimate first (MFPS, automatic scales)"},
+    {GuideNormals::Estimate, "estimate first (the default method, automatic scales)"},
 };
 
 template <typename T, size_t N>
@@ -78,6 +90,13 @@ int non_negative(const RichParameterList& par, const char* name) {
 
 // "auto" or empty -> {} (chosen from the noise level); "50,100,150" -> {50, 100, 150}. The core
 // checks the range of each value.
+// scales_from's inverse: {} -> "auto", {50, 100, 150} -> "50,100,150".
+QString scales_text(const std::vector<int>& scales) {
+  QStringList s;
+  for (int v : scales) s << QString::number(v);
+  return s.isEmpty() ? QString("auto") : s.join(",");
+}
+
 std::vector<int> scales_from(const QString& text) {
   const QString t = text.trimmed();
   if (t.isEmpty() || t.compare("auto", Qt::CaseInsensitive) == 0) return {};
@@ -94,13 +113,42 @@ std::vector<int> scales_from(const QString& text) {
   return scales;
 }
 
-// MeshLab's progress callback (percent, message) as the core's; a false return cancels.
-nhnet::ProgressCallback progress_of(vcg::CallBackPos* cb) {
-  if (cb == nullptr) return {};
-  return [cb](double fraction, const std::string& stage) {
-    return cb(int(fraction * 100.0), stage.c_str());
-  };
+// In the MeshLab GUI (a visible main window), a modal progress dialog with a Cancel button:
+// MeshLab's own progress bar has none. Null in meshlabserver.
+std::unique_ptr<QProgressDialog> cancel_dialog() {
+  if (qobject_cast<QApplication*>(QCoreApplication::instance()) == nullptr) return nullptr;
+  for (QWidget* w : QApplication::topLevelWidgets())
+    if (qobject_cast<QMainWindow*>(w) != nullptr && w->isVisible()) {
+      auto d = std::make_unique<QProgressDialog>("NH-Net", "Cancel", 0, 100, w);
+      d->setWindowModality(Qt::ApplicationModal);  // nothing can edit the mesh meanwhile
+      d->setMinimumDuration(500);
+      return d;
+    }
+  return nullptr;
 }
+
+// One poll of a run (host thread): MeshLab's callback when the percentage changes (false =
+// cancel, vcg's convention), the dialog's Cancel, the NHNET_PLUGIN_CANCEL_AT test hook.
+struct Poller {
+  vcg::CallBackPos* cb;
+  QProgressDialog* dialog;
+  double cancel_at = nhplugin::test_cancel_at();
+  int shown = -1;
+
+  bool operator()(double f, const std::string& stage) {
+    const int percent = int(f * 100.0);
+    bool go = f < cancel_at;
+    if (cb != nullptr && percent != shown) go = cb(percent, stage.c_str()) && go;
+    shown = percent;
+    if (dialog != nullptr) {
+      dialog->setLabelText(QString::fromStdString(stage));
+      dialog->setValue(percent);
+      QCoreApplication::processEvents();
+      go = go && !dialog->wasCanceled();
+    }
+    return go;
+  }
+};
 
 bool has_vertex_normals(const CMeshO& m) {
   for (const auto& v : m.vert)
@@ -133,6 +181,19 @@ Vertices copy_in(CMeshO& m) {
 
 Point3m point3m(const nhnet::Points& rows, Eigen::Index i) {
   return Point3m(Scalarm(rows(i, 0)), Scalarm(rows(i, 1)), Scalarm(rows(i, 2)));
+}
+
+// The mesh's camera (cm.shot: the PLY camera element, or set in MeshLab), when it is set.
+void add_shot_sensor(const CMeshO& m, nhnet::Cloud& cloud) {
+  if (!m.shot.IsValid()) return;
+  nhnet::Sensor s;
+  const auto t = m.shot.Extrinsics.Tra();
+  s.position = Eigen::Vector3d(t[0], t[1], t[2]);
+  const auto r = m.shot.Extrinsics.Rot();  // rows: the camera's axes
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) s.rotation(j, i) = double(r[i][j]);
+  s.source = "the mesh's camera";
+  cloud.sensors.push_back(s);
 }
 
 QString join(const std::vector<int>& values) {
@@ -206,24 +267,33 @@ void NhnetFilterPlugin::initParameterSet(QAction* action, MeshModel& m, RichPara
   const nhnet::EstimateOptions e;  // the core's defaults
   const nhnet::OrientOptions o;
   const nhnet::DenoiseOptions d;
-  const nhnet::OrientMode orient_default =
-      has_vertex_normals(m.cm) ? nhnet::OrientMode::Keep : o.mode;
+  // The mesh's camera, when set, is the viewpoint's default (as in MeshLab's "Compute normals
+  // for point sets").
+  const Eigen::Vector3d vp = m.cm.shot.IsValid() ? Eigen::Vector3d(m.cm.shot.Extrinsics.Tra()[0],
+                                                                   m.cm.shot.Extrinsics.Tra()[1],
+                                                                   m.cm.shot.Extrinsics.Tra()[2])
+                                                 : o.viewpoint;
   switch (ID(action)) {
     case FP_ESTIMATE_NORMALS:
-      par.addParam(RichEnum("method", 0, labels(kMethods), "Method",
+      par.addParam(RichEnum("method", index_of(kMethods, nhnet::default_method()), labels(kMethods),
+                            "Method",
                             "MFPS: PCA for smooth points, multi-scale fitting patch selection "
                             "near sharp features (paper Sec. 4). PCA: plain PCA over the k "
                             "nearest neighbours. NH-Net: MFPS refined by the learned model "
-                            "(paper Sec. 5; several times slower)."));
+                            "(paper Sec. 5; several times slower). Default: NH-Net when its "
+                            "model is installed, else MFPS (as nhnet-cli)."));
       par.addParam(RichInt("k", e.k, "PCA neighbours (0 = auto)",
                            "Neighbourhood size of PCA (self included), an integer >= 3; 0 = "
                            "chosen from the estimated noise level."));
-      par.addParam(RichString("scales", "auto", "MFPS scales",
+      par.addParam(RichString("scales", scales_text(e.mfps.scales), "MFPS scales",
                               "MFPS patch sizes, e.g. 50,100,150 (the paper's), integers >= 4; "
                               "'auto' = chosen from the estimated noise level. Ignored by PCA."));
-      par.addParam(RichEnum("orientation", index_of(kOrientations, orient_default),
+      par.addParam(RichEnum("orientation", index_of(kOrientations, nhnet::kDefaultOrientMode),
                             labels(kOrientations), "Orientation",
-                            "keep: flip each normal to agree with the vertex's current normal "
+                            "auto (default): keep when the vertices have normals, else towards "
+                            "the mesh's camera when it is set (a PLY camera element), else MST. "
+                            "up: facing +z where the surface is not vertical. keep: flip each "
+                            "normal to agree with the vertex's current normal "
                             "(vertices with a zero normal keep an arbitrary sign). viewpoint: "
                             "point towards the viewpoint (the scanner's position). MST: one "
                             "consistent side per connected part, propagated over a minimum "
@@ -231,11 +301,9 @@ void NhnetFilterPlugin::initParameterSet(QAction* action, MeshModel& m, RichPara
                             "highest point, turned up (outwards on closed surfaces). none: the "
                             "sign of each normal is arbitrary."));
       par.addParam(RichPoint3f(
-          "viewpoint",
-          vcg::Point3f(float(o.viewpoint.x()), float(o.viewpoint.y()), float(o.viewpoint.z())),
-          "Viewpoint",
-          "Sensor position for 'viewpoint' orientation, in the "
-          "mesh's coordinates."));
+          "viewpoint", vcg::Point3f(float(vp.x()), float(vp.y()), float(vp.z())), "Viewpoint",
+          "Sensor position for 'viewpoint' orientation, in the mesh's "
+          "coordinates (default: the mesh's camera when set)."));
       par.addParam(RichInt("mst_k", o.k, "MST neighbours",
                            "Neighbours per point (self included, >= 2) of the graph 'MST' "
                            "orientation propagates over."));
@@ -244,7 +312,7 @@ void NhnetFilterPlugin::initParameterSet(QAction* action, MeshModel& m, RichPara
       par.addParam(RichInt("seed", int(e.mfps.seed), "Random seed",
                            "Seed of MFPS's random plane samples (results are deterministic for "
                            "a seed)."));
-      par.addParam(RichString("model", "", "NH-Net model file",
+      par.addParam(RichString("model", QString::fromStdString(e.model.path), "NH-Net model file",
                               "TorchScript model written by nhnet-export; empty = the shipped "
                               "model installed with nhnet. Used by the NH-Net method only."));
       break;
@@ -300,30 +368,86 @@ bool NhnetFilterPlugin::applyFilter(QAction* action, MeshDocument& md, const Ric
   return false;
 }
 
-void NhnetFilterPlugin::estimate(MeshModel& mm, const RichParameterList& par,
-                                 vcg::CallBackPos* cb) {
-  // Options first: a bad parameter fails before any work.
+void NhnetFilterPlugin::runPolled(vcg::CallBackPos* cb,
+                                  const std::function<void(const nhnet::ProgressCallback&)>& work) {
+  const std::unique_ptr<QProgressDialog> dialog = cancel_dialog();
+  Poller poller{cb, dialog.get()};
+  using Clock = std::chrono::steady_clock;
+  Clock::time_point asked;
+  try {
+    nhplugin::run_polled(work, [&](double f, const std::string& stage) {
+      const bool go = poller(f, stage);
+      if (!go) asked = Clock::now();
+      return go;
+    });
+  } catch (const nhnet::Cancelled&) {
+    const std::chrono::duration<double> delay = Clock::now() - asked;
+    Log("NH-Net: stopped %.2f s after the cancel", delay.count());
+    throw;
+  }
+}
+
+// The filter's estimate options; a bad parameter throws before any work.
+nhnet::EstimateOptions NhnetFilterPlugin::estimateOptions(const RichParameterList& par) {
   nhnet::EstimateOptions opt;
   opt.method = choice(kMethods, par, "method");
   opt.k = par.getInt("k");
   opt.mfps.scales = scales_from(par.getString("scales"));
-  nhnet::OrientOptions oopt;
-  oopt.mode = choice(kOrientations, par, "orientation");
-  const vcg::Point3f vp = par.getPoint3f("viewpoint");
-  oopt.viewpoint = Eigen::Vector3d(vp[0], vp[1], vp[2]);
-  oopt.k = par.getInt("mst_k");
   opt.run.threads = non_negative(par, "threads");
   opt.mfps.seed = uint64_t(non_negative(par, "seed"));
   if (opt.method == nhnet::Method::NhNet)
     opt.model.path = par.getString("model").trimmed().toStdString();
-  opt.run.progress = progress_of(cb);
-  oopt.run = opt.run;
+  std::string why;
+  if (opt.method == nhnet::default_method(&why) && !why.empty())
+    Log(GLLogStream::WARNING, "NH-Net: method %s (%s; method NH-Net needs it)",
+        nhnet::to_string(opt.method), why.c_str());
+  return opt;
+}
 
+// The orientation asked for, made concrete for this layer (auto: nhnet::resolve_orientation
+// on what the layer carries: its vertex normals, its camera).
+nhnet::OrientPlan NhnetFilterPlugin::orientPlan(const RichParameterList& par,
+                                                const nhnet::Cloud& cloud) {
+  nhnet::OrientOptions requested;
+  requested.mode = choice(kOrientations, par, "orientation");
+  const vcg::Point3f vp = par.getPoint3f("viewpoint");
+  requested.viewpoint = Eigen::Vector3d(vp[0], vp[1], vp[2]);
+  requested.k = par.getInt("mst_k");
+  requested.run.threads = non_negative(par, "threads");
+  nhnet::OrientPlan plan = nhnet::resolve_orientation(cloud, requested);
+  if (plan.options.mode == nhnet::OrientMode::Keep && !cloud.has_normals()) {
+    Log(GLLogStream::WARNING,
+        "NH-Net: orientation keep: the vertices have no normals, so the "
+        "signs stay arbitrary");
+    plan.options.mode = nhnet::OrientMode::None;
+  }
+  return plan;
+}
+
+void NhnetFilterPlugin::estimate(MeshModel& mm, const RichParameterList& par,
+                                 vcg::CallBackPos* cb) {
+  const nhnet::EstimateOptions opt = estimateOptions(par);
   Vertices v = copy_in(mm.cm);
-  nhnet::EstimateResult res = nhnet::estimate_normals(v.points, opt);
+  nhnet::Cloud cloud;
+  cloud.points = std::move(v.points);
+  if (has_vertex_normals(mm.cm)) cloud.normals = std::move(v.normals);
+  v.normals = nhnet::Normals();  // zeros otherwise: not kept through the run
+  add_shot_sensor(mm.cm, cloud);
+  nhnet::OrientPlan plan = orientPlan(par, cloud);
+  const bool orienting = plan.options.mode != nhnet::OrientMode::None;
+
+  nhnet::EstimateResult res;
   nhnet::OrientResult ores;
-  if (oopt.mode != nhnet::OrientMode::None)
-    ores = nhnet::orient_normals(v.points, res.normals, oopt, v.normals);
+  runPolled(cb, [&](const nhnet::ProgressCallback& progress) {
+    nhnet::EstimateOptions o = opt;
+    o.run.progress = [&](double f, const std::string& s) { return progress(f * 0.85, s); };
+    res = nhnet::estimate_normals(cloud.points, o);
+    if (!orienting) return;
+    plan.options.run.progress = [&](double f, const std::string& s) {
+      return progress(0.85 + 0.15 * f, s);
+    };
+    ores = nhnet::orient_normals(cloud.points, res.normals, plan.options, cloud.normals);
+  });
 
   // Copy out: failed points get a zero normal (MeshLab's "no normal").
   for (size_t i = 0; i < v.ptr.size(); ++i)
@@ -332,10 +456,11 @@ void NhnetFilterPlugin::estimate(MeshModel& mm, const RichParameterList& par,
 
   for (const std::string& w : res.warnings) Log(GLLogStream::WARNING, "NH-Net: " + w);
   Log("NH-Net: normals of %d vertices (%lld failed), method %s, k %d, scales %s, noise ratio "
-      "%.3g, %lld feature candidates; orientation %s: %lld flipped, %lld undecided",
+      "%.3g, %lld feature candidates; orientation %s from %s: %lld flipped, %lld undecided",
       int(v.ptr.size()), (long long)res.failed, nhnet::to_string(opt.method), res.k_used,
       qUtf8Printable(join(res.scales_used)), res.noise_ratio, (long long)res.candidates,
-      nhnet::to_string(oopt.mode), (long long)ores.flipped, (long long)ores.unoriented);
+      nhnet::to_string(plan.options.mode), plan.source.c_str(), (long long)ores.flipped,
+      (long long)ores.unoriented);
 }
 
 void NhnetFilterPlugin::denoise(MeshModel& mm, const RichParameterList& par, vcg::CallBackPos* cb) {
@@ -344,23 +469,32 @@ void NhnetFilterPlugin::denoise(MeshModel& mm, const RichParameterList& par, vcg
   opt.radius = double(par.getFloat("radius"));
   const GuideNormals guide = choice(kGuides, par, "normals");
   opt.run.threads = non_negative(par, "threads");
-  opt.run.progress = progress_of(cb);
 
   Vertices v = copy_in(mm.cm);
-  if (guide == GuideNormals::Current) {
-    if (v.normals.rows() > 0 && v.normals.cwiseAbs().maxCoeff() == 0)
-      throw nhnet::UnprocessableInput(
-          "the vertices have no normals; choose 'estimate first' for Normals, or run "
-          "'Estimate normals (NH-Net)' before");
-  } else {
-    nhnet::EstimateOptions eopt;
-    eopt.run = opt.run;
-    nhnet::EstimateResult est = nhnet::estimate_normals(v.points, eopt);
-    nhnet::orient_like(est.normals, v.normals);
-    for (const std::string& w : est.warnings) Log(GLLogStream::WARNING, "NH-Net: " + w);
-    v.normals = est.normals;  // NaN rows (failed points) are skipped by the denoiser
-  }
-  nhnet::DenoiseResult res = nhnet::denoise_points(v.points, v.normals, opt);
+  if (guide == GuideNormals::Current && v.normals.rows() > 0 &&
+      v.normals.cwiseAbs().maxCoeff() == 0)
+    throw nhnet::UnprocessableInput(
+        "the vertices have no normals; choose 'estimate first' for Normals, or run "
+        "'Estimate normals (NH-Net)' before");
+  nhnet::EstimateOptions eopt;
+  eopt.method = nhnet::default_method();
+  eopt.run.threads = opt.run.threads;
+  nhnet::EstimateResult est;
+  nhnet::DenoiseResult res;
+  runPolled(cb, [&](const nhnet::ProgressCallback& progress) {
+    const double split = guide == GuideNormals::Estimate ? 0.5 : 0.0;
+    if (guide == GuideNormals::Estimate) {
+      eopt.run.progress = [&](double f, const std::string& s) { return progress(f * split, s); };
+      est = nhnet::estimate_normals(v.points, eopt);
+      nhnet::orient_like(est.normals, v.normals);
+      v.normals = est.normals;  // NaN rows (failed points) are skipped by the denoiser
+    }
+    opt.run.progress = [&](double f, const std::string& s) {
+      return progress(split + (1 - split) * f, s);
+    };
+    res = nhnet::denoise_points(v.points, v.normals, opt);
+  });
+  for (const std::string& w : est.warnings) Log(GLLogStream::WARNING, "NH-Net: " + w);
 
   for (size_t i = 0; i < v.ptr.size(); ++i) {
     const auto r = Eigen::Index(i);

@@ -6,6 +6,11 @@
 
 #include <common/interfaces.h>
 
+#include "nhnet/orient/auto.hpp"
+#include "nhnet/pipeline/estimate.hpp"
+
+#include <functional>
+
 class NhnetFilterPlugin : public QObject, public MeshFilterInterface {
   Q_OBJECT
   MESHLAB_PLUGIN_IID_EXPORTER(MESH_FILTER_INTERFACE_IID)
@@ -32,6 +37,13 @@ class NhnetFilterPlugin : public QObject, public MeshFilterInterface {
   /// only after the core call succeeded.
   void estimate(MeshModel& mm, const RichParameterList& par, vcg::CallBackPos* cb);
   void denoise(MeshModel& mm, const RichParameterList& par, vcg::CallBackPos* cb);
+  /// Runs `work` (a core call) on a worker thread while this thread polls its progress:
+  /// MeshLab's callback, a Cancel dialog in the GUI (nhplugin::run_polled). Throws
+  /// nhnet::Cancelled on a cancel, after logging how long stopping took.
+  void runPolled(vcg::CallBackPos* cb,
+                 const std::function<void(const nhnet::ProgressCallback&)>& work);
+  nhnet::EstimateOptions estimateOptions(const RichParameterList& par);
+  nhnet::OrientPlan orientPlan(const RichParameterList& par, const nhnet::Cloud& cloud);
   /// Sets errorMessage and writes it to MeshLab's log (meshlabserver prints only the log).
   void fail(const QString& message);
 };

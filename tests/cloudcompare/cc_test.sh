@@ -40,6 +40,15 @@ cc() {
 }
 
 expect_rc() { [[ $RC == "$1" ]] || fail "CloudCompare exited $RC, expected $1"; }
+MAKE="$SRC/tests/cloudcompare/make_clouds.py"
+# facing_at_least PLY SPLIT MIN X Y Z [X Y Z]: share of normals facing their sensor >= MIN.
+facing_at_least() {
+  local ply=$1 split=$2 min=$3 share
+  shift 3
+  share=$("$PY" "$MAKE" facing "$ply" "$split" "$@" | tail -n 1)
+  awk -v s="$share" -v m="$min" 'BEGIN { exit !(s >= m) }' ||
+    fail "$ply: $share of the normals face their sensor (want >= $min)"
+}
 log_has() { grep -qF -- "$1" log.txt || fail "CloudCompare output lacks '$1'"; }
 loaded() { log_has "Plugin found: NH-Net normals (libQNHNET_PLUGIN.so)"; }
 
@@ -83,14 +92,32 @@ case_nhnet_matches_cli() {
   "$PY" "$COMPARE" cc.ply cli.ply --max-deg 0.25 --mean-deg 0.1 || fail "normals differ from the CLI's"
 }
 
-# Default options (no -METHOD / -ORIENT), a second command on the same cloud (PCA), and
-# auto-save: each command exports the cloud with its suffix next to the input.
+# Default options (no -METHOD / -ORIENT) equal nhnet-cli's defaults (no flags) on the same
+# points: the same method (the core's default_method: nhnet with the shipped model, else mfps
+# with the CLI's warning) and the same orientation (auto: here MST, the cloud has no normals and
+# no sensor), so the signed angles obey the quantisation bound of case_normals_match_cli; a
+# different method or a flipped sign would be degrees to 180 off. The CLI reads CloudCompare's
+# own save of the points without normals (the same floats). Then a second command on the same
+# cloud (PCA) and auto-save: each command exports the cloud with its suffix next to the input.
 case_defaults_and_autosave() {
+  head -n 2000 "$SAMPLE" >small.xyz
+  cc -O small.xyz -SAVE_CLOUDS FILE pts.ply
+  expect_rc 0
+  cc -O pts.ply -NHNET_NORMALS -SAVE_CLOUDS FILE cc.ply
+  expect_rc 0
+  "$CLI" estimate pts.ply cli.ply --report report.json 2>cli_err.txt || fail "nhnet-cli failed"
+  local method
+  method=$("$PY" -c 'import json, sys; print(json.load(open(sys.argv[1]))["method"])' report.json)
+  log_has "method $method,"
+  log_has "orient mst from no sensor in the file: MST"
+  if grep -q "warning: method mfps" cli_err.txt; then log_has "method mfps ("; fi
+  "$PY" "$COMPARE" cc.ply cli.ply --signed --max-deg 0.25 --mean-deg 0.1 ||
+    fail "default normals (signed) differ from nhnet-cli's defaults"
   cp "$SAMPLE" in.xyz
   set +e
   XDG_DATA_HOME="$WORK/data" XDG_CONFIG_HOME="$WORK/config" XDG_RUNTIME_DIR="$WORK" \
     QT_QPA_PLATFORM=offscreen "$CC" -SILENT -NO_TIMESTAMP -C_EXPORT_FMT PLY -O in.xyz \
-    -NHNET_NORMALS -NHNET_NORMALS -METHOD pca -THREADS 1 >log.txt 2>&1
+    -NHNET_NORMALS -METHOD mfps -NHNET_NORMALS -METHOD pca -THREADS 1 >log.txt 2>&1
   RC=$?
   set -e
   expect_rc 0
@@ -99,6 +126,42 @@ case_defaults_and_autosave() {
   ls in_NHNET_NORMALS*.ply >/dev/null 2>&1 || fail "no auto-saved in_NHNET_NORMALS*.ply"
   "$PY" "$COMPARE" "$(ls in_NHNET_NORMALS*.ply | head -n 1)" "$GT" --mean-deg 20 ||
     fail "auto-saved normals are far from the ground truth"
+}
+
+# The default orientation uses the cloud's scanner: a PTX scan (CloudCompare's loader gives the
+# cloud a scan grid and a ccGBLSensor) from inside a closed room. Every normal must face the
+# sensor (>= 99.5 %, issue 24's bar for single-view scans; measured 100 %); the same points with
+# no sensor (.xyz) get MST's outward normals, which face it for < 5 % (measured 0 %): the check
+# tells the two apart.
+case_sensor_scan() {
+  "$PY" "$MAKE" room room.ptx
+  cc -O room.ptx -NHNET_NORMALS -METHOD pca -SAVE_CLOUDS FILE room.ply
+  expect_rc 0
+  log_has "orient viewpoint from sensor from CloudCompare scan grid 1 of 1 at (0.5, -0.3, 1.2)"
+  facing_at_least room.ply 99999999 0.995 0.5 -0.3 1.2
+  "$PY" -c 'import sys, importlib.util
+spec = importlib.util.spec_from_file_location("c", sys.argv[1]); c = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(c); import numpy as np
+p, _ = c.read(sys.argv[2]); np.savetxt("room.xyz", p, fmt="%.6f")' "$COMPARE" room.ply
+  cc -O room.xyz -NHNET_NORMALS -METHOD pca -SAVE_CLOUDS FILE room_mst.ply
+  expect_rc 0
+  log_has "orient mst from no sensor in the file: MST"
+  local share
+  share=$("$PY" "$MAKE" facing room_mst.ply 99999999 0.5 -0.3 1.2 | tail -n 1)
+  awk -v s="$share" 'BEGIN { exit !(s < 0.05) }' || fail "MST faces the sensor for $share: the scene does not tell sensor from MST"
+}
+
+# Two scans of one plane, from above and from below, merged into one cloud (-MERGE_CLOUDS keeps
+# both scan grids): each point must face its own scan's sensor (>= 99.5 %; measured 100 %).
+# One sensor for all would leave the second scan's half facing the wrong way (50 %).
+case_sensor_merged_scans() {
+  "$PY" "$MAKE" two_sided two.ptx
+  cc -O two.ptx -MERGE_CLOUDS -NHNET_NORMALS -METHOD pca -SAVE_CLOUDS FILE two.ply
+  expect_rc 0
+  log_has "orient sensors from 2 sensors (CloudCompare scan grid 1 of 2, ...)"
+  # CloudCompare appends _0 to a merged cloud's file name
+  mv "$(ls two.ply* | head -n 1)" merged.ply
+  facing_at_least merged.ply 6400 0.995 0 0 2 0 0 -2
 }
 
 # -ORIENT keep flips the estimated normals to agree with the cloud's existing ones: the input is
@@ -112,7 +175,7 @@ case_orient_keep() {
   "$PY" "$COMPARE" gt.ply "$GT" --signed --max-deg 0.25 >/dev/null || fail "CloudCompare did not read the normals of $GT"
   cc -O gt.ply -NHNET_NORMALS -METHOD pca -ORIENT keep -SAVE_CLOUDS FILE keep.ply
   expect_rc 0
-  log_has "orient keep ("
+  log_has "orient keep from requested ("
   # Signed agreement: every valid normal points to the same side as the input's (< 90 degrees).
   "$PY" "$COMPARE" keep.ply gt.ply --signed --max-deg 90 ||
     fail "orient keep left normals pointing against the input's"
@@ -139,15 +202,15 @@ print(f"{sys.argv[2]}: {bad} of {len(s)} normals not pointing {side}")
 sys.exit(1 if bad else 0)'
   cc -O sphere.xyz -NHNET_NORMALS -METHOD pca -ORIENT mst -SAVE_CLOUDS FILE mst.ply
   expect_rc 0
-  log_has "orient mst ("
+  log_has "orient mst from requested ("
   "$PY" -c "$check" "$COMPARE" mst.ply 1 || fail "mst did not orient the sphere outward"
   cc -O sphere.xyz -NHNET_NORMALS -METHOD pca -SAVE_CLOUDS FILE auto.ply
   expect_rc 0
-  log_has "orient mst ("
+  log_has "orient mst from no sensor in the file: MST ("
   "$PY" -c "$check" "$COMPARE" auto.ply 1 || fail "the default orientation is not outward"
   cc -O sphere.xyz -NHNET_NORMALS -METHOD pca -ORIENT viewpoint 5 -2 1 -SAVE_CLOUDS FILE vp.ply
   expect_rc 0
-  log_has "orient viewpoint ("
+  log_has "orient viewpoint from requested ("
   "$PY" -c "$check" "$COMPARE" vp.ply -1 || fail "viewpoint did not turn the normals to the centre"
 }
 
@@ -258,6 +321,61 @@ case_install_location() {
   expect_rc 0
   log_has "Plugin found: NH-Net normals"
   [[ -s out.ply ]] || fail "out.ply not written"
+}
+
+# ---- large clouds (ctest label "large") ---------------------------------------------------------
+
+# peak_mib: the peak resident memory /usr/bin/time -v wrote to time.txt, in MiB.
+peak_mib() { awk -F': ' '/Maximum resident set size/ { print int($2 / 1024) }' time.txt; }
+
+# cc_timed ARGS...: cc under /usr/bin/time -v (time.txt), with the environment in CC_ENV.
+cc_timed() {
+  set +e
+  env ${CC_ENV:-} XDG_DATA_HOME="$WORK/data" XDG_CONFIG_HOME="$WORK/config" XDG_RUNTIME_DIR="$WORK" \
+    QT_QPA_PLATFORM=offscreen /usr/bin/time -v -o time.txt "$CC" -SILENT -NO_TIMESTAMP \
+    -AUTO_SAVE OFF "$@" >log.txt 2>&1
+  RC=$?
+  set -e
+  echo "\$ CloudCompare -SILENT ... $* -> $RC, peak $(peak_mib) MiB"
+}
+
+LARGE_N=10000000
+
+# A 10M-point cloud (binary PLY, 120 MB) through -NHNET_NORMALS to the end: PCA (the complete
+# default NH-Net would take ~20 min on CI's 2 cores) and viewpoint orientation (O(N); MST is
+# the orientation test's business), progress on the console. Peak memory: measured 1659 MiB
+# (CloudCompare's cloud 0.16 GB, the plugin's double copies of points and normals 0.48 GB, the
+# core's tiles of 1M points); the bound of 3 GiB, an eighth of this 24 GiB machine, fails if
+# the run holds about six more double copies of the cloud (0.24 GB each) or stops tiling.
+case_large_cloud() {
+  "$PY" "$MAKE" big big.ply "$LARGE_N"
+  cc_timed -O big.ply -NHNET_NORMALS -METHOD pca -ORIENT viewpoint 50 50 100
+  expect_rc 0
+  log_has "[NH-Net] 'big': $LARGE_N points, 0 failed, method pca"
+  log_has "orient viewpoint from requested"
+  log_has "[NH-Net] 50 %"
+  local peak
+  peak=$(peak_mib)
+  ((peak < 3072)) || fail "peak memory $peak MiB (want < 3072)"
+}
+
+# The same cloud, cancelled once the progress reaches 5 % (NHNET_PLUGIN_CANCEL_AT, the test hook
+# of the plugin's cancel path, which the GUI's Cancel button takes too): the command fails with
+# the cancel message, nothing is saved, and the core stopped within 3 s of the cancel (measured
+# 0.21 s, and 0.66 s in MeshLab's same test, with this machine's 2 cores shared by ~20 busy
+# processes; a core that ignored the cancel would run on for a minute or more).
+case_large_cancel() {
+  "$PY" "$MAKE" big big.ply "$LARGE_N"
+  CC_ENV="NHNET_PLUGIN_CANCEL_AT=0.05" cc_timed -O big.ply -NHNET_NORMALS -METHOD pca \
+    -C_EXPORT_FMT PLY -SAVE_CLOUDS FILE out.ply
+  expect_rc 1
+  log_has "cancelled; the cloud was left unchanged"
+  [[ ! -e out.ply ]] || fail "out.ply written despite the cancel"
+  local delay
+  delay=$(sed -n 's/.*stopped \([0-9.]*\) s after the cancel.*/\1/p' log.txt)
+  [[ -n $delay ]] || fail "no 'stopped ... after the cancel' line"
+  echo "stopped $delay s after the cancel"
+  awk -v d="$delay" 'BEGIN { exit !(d < 3) }' || fail "stopped $delay s after the cancel (want < 3)"
 }
 
 "case_$CASE"

@@ -39,8 +39,8 @@ def read_ply(path):
                 in_vertex = words[1] == "vertex"
                 if in_vertex:
                     count = int(words[2])
-                elif count:
-                    break  # vertex element comes first in every file we compare
+                elif not count:
+                    raise ValueError(f"{path}: an element before the vertices")
             elif words[0] == "property" and in_vertex:
                 if words[1] == "list":
                     raise ValueError(f"{path}: list property in the vertex element")

@@ -1,6 +1,9 @@
 #!/usr/bin/env bash
 # Headless test of the MeshLab plugin with the real meshlabserver (Debian's MeshLab 2020.09):
-#   meshlab_test.sh PLUGIN.so NHNET_CLI SOURCE_DIR
+#   meshlab_test.sh PLUGIN.so NHNET_CLI SOURCE_DIR [large]
+# With "large": only the 10M-point cases (ctest label large), see the end.
+# NHNET_ML_RUN (from CMake): tests/meshlab/ml_run, which runs a filter with its default
+# parameters through the same plugin interfaces (meshlabserver cannot).
 # meshlabserver only looks for plugins in <its own dir>/plugins (else the system dir), so a
 # private copy gets a plugins/ dir with the system io_base (PLY) and filter_create (a mesh to
 # test on) plus ours; XDG_CONFIG_HOME is a temp dir; one Xvfb server (started here, stopped on
@@ -10,6 +13,7 @@ set -euo pipefail
 PLUGIN=$(realpath "$1")
 CLI=$(realpath "$2")
 SRC=$(realpath "$3")
+MODE=${4:-}
 MLDIR=/usr/lib/x86_64-linux-gnu/meshlab
 
 T=$(mktemp -d)
@@ -37,16 +41,19 @@ mls() { "$T/ml/meshlabserver" "$@" >"$T/last.log" 2>&1; }
 
 # An .mlx script running "Estimate normals (NH-Net)". meshlabserver needs every parameter, in
 # the filter's order (it asserts otherwise), and enum_cardinality on enums.
-# estimate_mlx METHOD K SCALES ORIENTATION  (method 0 = MFPS, 1 = PCA, 2 = NH-Net; orientation 0 = keep,
-# 1 = viewpoint (the origin), 2 = MST, 3 = none)
+# estimate_mlx METHOD K SCALES ORIENTATION [MODEL [VIEWPOINT]]  (method 0 = MFPS, 1 = PCA,
+# 2 = NH-Net; orientation 0 = keep, 1 = viewpoint (default the origin), 2 = MST, 3 = none,
+# 4 = auto, 5 = up)
 estimate_mlx() {
+  local vp=${6:-}
+  [[ -n $vp ]] || vp='x="0" y="0" z="0"'
   cat <<MLX
   <filter name="Estimate normals (NH-Net)">
    <Param type="RichEnum" name="method" value="$1" enum_cardinality="3"/>
    <Param type="RichInt" name="k" value="$2"/>
    <Param type="RichString" name="scales" value="$3"/>
-   <Param type="RichEnum" name="orientation" value="$4" enum_cardinality="4"/>
-   <Param type="RichPoint3f" name="viewpoint" x="0" y="0" z="0"/>
+   <Param type="RichEnum" name="orientation" value="$4" enum_cardinality="6"/>
+   <Param type="RichPoint3f" name="viewpoint" $vp/>
    <Param type="RichInt" name="mst_k" value="18"/>
    <Param type="RichInt" name="threads" value="0"/>
    <Param type="RichInt" name="seed" value="1"/>
@@ -66,6 +73,11 @@ denoise_mlx() {
 MLX
 }
 script() { { echo '<!DOCTYPE FilterScript>'; echo '<FilterScript>'; cat; echo '</FilterScript>'; } }
+
+if [[ $MODE == large ]]; then
+  source "$SRC/tests/meshlab/meshlab_large_cases.sh"
+  exit $((fails > 0))
+fi
 
 # 1. Both filters are listed.
 if mls -d dump.txt && grep -q 'Estimate normals (NH-Net)' dump.txt &&
@@ -104,6 +116,56 @@ same_as_cli() {
 # 2. The whole noisy sample (MFPS, the default) and, NH-Net being slower, its first 3000 points.
 same_as_cli mfps 0 20000
 same_as_cli nhnet 2 3000
+
+# ml_run IN OUT: "Estimate normals (NH-Net)" with the plugin's default parameters.
+ml_run() {
+  QT_QPA_PLATFORM=offscreen "$NHNET_ML_RUN" "$MLDIR/plugins/libio_base.so" "$PLUGIN" "$1" "$2" \
+    "Estimate normals (NH-Net)" >"$T/last.log" 2>&1
+}
+# 2b. Defaults: the filter with the parameters it offers first equals `nhnet-cli estimate` with
+# no flags on the same points (in.ply: the first 3000 sample points, from same_as_cli): the same
+# default method (the core's default_method) and orientation (auto: MST for a cloud without
+# normals or camera), so even the signs agree: the same deterministic core on the same floats
+# leaves the rounding of the normals to float32 (measured 0.0000 degrees, signed); 0.01 degrees
+# is strict, a different method or one flipped normal is far beyond it.
+"$CLI" estimate in.ply cli_def.ply --quiet --overwrite --report cli_def.json
+want=$(sed -nE 's/.*"method": *"([a-z]+)".*/\1/p' cli_def.json | head -n 1)
+case $want in mfps) default_index=0 ;; pca) default_index=1 ;; *) default_index=2 ;; esac
+if ml_run in.ply ml_def.ply; then
+  grep 'NH-Net:' last.log || true
+  if grep -q "method $want," last.log && grep -q "orientation mst from no sensor in the file" last.log &&
+    /usr/bin/python3 "$SRC/tests/cloudcompare/compare_normals.py" ml_def.ply cli_def.ply --signed --max-deg 0.01; then
+    pass "defaults: method $want, orientation auto (MST) and the normals of nhnet-cli with no flags"
+  else
+    fail "defaults differ from nhnet-cli's (method $want)"; cat last.log
+  fi
+else
+  fail "ml_run with the defaults exited $?"; cat last.log
+fi
+
+# 2c. The default orientation uses the mesh's camera (the PLY camera element MeshLab reads into
+# the mesh's shot): a scan from inside a closed room, every normal must face the camera
+# (>= 99.5 %, issue 24's bar; measured 100 %); the same points without the camera get MST's
+# outward normals, which face it for < 5 % (measured 0 %).
+MAKE="$SRC/tests/cloudcompare/make_clouds.py"
+/usr/bin/python3 "$MAKE" camera_ply cam.ply
+/usr/bin/python3 "$MAKE" room_ply room.ply
+if ml_run cam.ply cam_out.ply && grep -q "orientation viewpoint from sensor from the mesh's camera at (0.5, -0.3, 1.2)" last.log; then
+  share=$(/usr/bin/python3 "$MAKE" facing cam_out.ply 99999999 0.5 -0.3 1.2 | tail -n 1)
+  ml_run room.ply room_out.ply
+  mst=$(/usr/bin/python3 "$MAKE" facing room_out.ply 99999999 0.5 -0.3 1.2 | tail -n 1)
+  # nhnet-cli reads the same camera element (PCL's and VCG's PLY camera): with no flags it must
+  # give the same signed normals (same bound as the defaults above).
+  "$CLI" estimate cam.ply cam_cli.ply --quiet --overwrite
+  if awk -v s="$share" -v m="$mst" 'BEGIN { exit !(s >= 0.995 && m < 0.05) }' &&
+    /usr/bin/python3 "$SRC/tests/cloudcompare/compare_normals.py" cam_out.ply cam_cli.ply --signed --max-deg 0.01; then
+    pass "camera: $share of the normals face it (MST without the camera: $mst), as nhnet-cli's defaults"
+  else
+    fail "camera: $share face it (want >= 0.995), MST without it $mst (want < 0.05)"
+  fi
+else
+  fail "the camera was not used"; cat last.log
+fi
 
 # radial_worst PLY SIGN: "count worst-angle" between the vertex normals of an ASCII PLY (x y z
 # nx ny nz first) and SIGN x the direction from the origin (180 for a normal pointing the
@@ -196,10 +258,11 @@ if mls -i cube.ply -o cube_dn.ply -m vn sa -s denoise.mlx; then
 else
   fail "denoise exited $?"; cat last.log
 fi
-# The same with the normals from the estimate filter run before ('current vertex normals'):
-# the same normals, only rounded to MeshLab's float32 in between, so the same points up to
-# float rounding (1e-5 is ~100 float32 ulps at the cube's scale of 1).
-{ estimate_mlx 0 0 auto 3; denoise_mlx 0; } | script >chain.mlx
+# The same with the normals from the estimate filter run before with the default method, which
+# 'estimate first' uses ('current vertex normals'): the same normals, only rounded to MeshLab's
+# float32 in between, so the same points up to float rounding (1e-5 is ~100 float32 ulps at the
+# cube's scale of 1).
+{ estimate_mlx "$default_index" 0 auto 3; denoise_mlx 0; } | script >chain.mlx
 if mls -i cube.ply -o cube_chain.ply -m vn sa -s chain.mlx; then
   diff=$(paste <(sed '1,/^end_header/d' cube_dn.ply) <(sed '1,/^end_header/d' cube_chain.ply) |
     awk 'function abs(v) { return v < 0 ? -v : v }
