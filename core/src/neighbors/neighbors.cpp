@@ -17,6 +17,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <utility>
 #include <vector>
 
 namespace nhnet {
@@ -135,15 +136,51 @@ class HeapResultSet {
 // From this many neighbours on, the heap replaces KNNResultSet's insertion.
 constexpr int kHeapFrom = 48;
 
-// k nearest of q into idx / d2, nearest first; returns how many were found.
+/// k nearest of q from a radius search: every point strictly within sqrt(r2) in the search's
+/// visiting order, the first k of them by (distance, visit) — what KNNResultSet keeps, ties
+/// included, since the k-NN search visits the same nodes in the same order and skips only
+/// subtrees strictly farther than its k-th. False when fewer than k lie within the radius.
+template <class TreeT>
+bool knn_by_radius(const TreeT& tree, const float* q, int kk, float r2, uint32_t* idx, float* d2) {
+  thread_local std::vector<std::pair<uint32_t, float>> found;
+  thread_local std::vector<uint32_t> order;
+  nanoflann::RadiusResultSet<float, uint32_t> set(r2, found);
+  tree.findNeighbors(set, q, nanoflann::SearchParams(32, 0.f, false));
+  if (found.size() < size_t(kk)) return false;
+  order.resize(found.size());
+  for (size_t t = 0; t < order.size(); ++t) order[t] = uint32_t(t);
+  auto nearer = [&](uint32_t a, uint32_t b) {
+    return found[a].second < found[b].second || (found[a].second == found[b].second && a < b);
+  };
+  std::nth_element(order.begin(), order.begin() + (kk - 1), order.end(), nearer);
+  std::sort(order.begin(), order.begin() + kk, nearer);
+  for (int j = 0; j < kk; ++j) {
+    idx[j] = found[order[size_t(j)]].first;
+    d2[j] = found[order[size_t(j)]].second;
+  }
+  return true;
+}
+
+// k nearest of q into idx / d2, nearest first; returns how many were found. From kHeapFrom
+// neighbours on: a radius search with the previous query's k-th distance (queries run in leaf
+// order, so the previous one is close by) widened by 20 %, widened again when it holds fewer
+// than k points, else the heap. A radius search adds every point within it in O(1); the
+// k-NN search's worst distance shrinks slowly at large k and admits thousands of points.
 template <class TreeT>
 size_t knn_search(const TreeT& tree, const float* q, int kk, uint32_t* idx, float* d2) {
   if (kk < kHeapFrom) return tree.knnSearch(q, size_t(kk), idx, d2);
+  thread_local float last_r2 = 0;
+  for (float r2 = last_r2 * 1.44f; r2 > 0 && r2 < last_r2 * 12.f; r2 *= 2.25f)
+    if (knn_by_radius(tree, q, kk, r2, idx, d2)) {
+      last_r2 = d2[kk - 1];
+      return size_t(kk);
+    }
   thread_local HeapResultSet set;
   set.init(size_t(kk));
   tree.findNeighbors(set, q, nanoflann::SearchParams());
   const size_t found = set.size();
   set.sorted(idx, d2);
+  if (found == size_t(kk)) last_r2 = d2[kk - 1];
   return found;
 }
 
