@@ -27,6 +27,40 @@ TEST(Neighbors, KnnMatchesBruteForce) {
   }
 }
 
+// From 48 neighbours on the search keeps its candidates in a heap (neighbors.cpp): the same
+// neighbours as brute force, nearest first.
+TEST(Neighbors, LargeKMatchesBruteForce) {
+  const auto f = fixtures::sphere(3000, 5);
+  Neighbors tree(f.points);
+  IndexMatrix idx;
+  DistanceMatrix d2;
+  tree.knn_all(300, idx, &d2);
+  for (int i = 0; i < 3000; i += 113) {
+    std::vector<double> all;
+    for (int j = 0; j < 3000; ++j) all.push_back((f.points.row(j) - f.points.row(i)).squaredNorm());
+    std::sort(all.begin(), all.end());
+    EXPECT_EQ(idx(i, 0), i);
+    for (int t = 0; t < 300; ++t) EXPECT_NEAR(d2(i, t), all[size_t(t)], 1e-6);
+  }
+}
+
+// On a grid nearly every distance is tied: the heap must break ties as nanoflann's sorted
+// insertion does (the small-k table), so a deep table's first columns are the shallow table.
+TEST(Neighbors, LargeKBreaksTiesLikeSmallK) {
+  Points p(20 * 20 * 3, 3);
+  for (int i = 0; i < p.rows(); ++i) p.row(i) << (i % 20), (i / 20) % 20, i / 400;
+  Neighbors tree(p);
+  IndexMatrix shallow, deep, deeper;
+  tree.knn_all(47, shallow, nullptr);  // below the heap's threshold: nanoflann's own result set
+  tree.knn_all(48, deep, nullptr);
+  tree.knn_all(150, deeper, nullptr);
+  for (int i = 0; i < p.rows(); ++i)
+    for (int t = 0; t < 47; ++t) {
+      ASSERT_EQ(deep(i, t), shallow(i, t)) << "point " << i << " column " << t;
+      ASSERT_EQ(deeper(i, t), shallow(i, t)) << "point " << i << " column " << t;
+    }
+}
+
 TEST(Neighbors, SelfFirstWithExactDuplicates) {
   Points p(40, 3);
   for (int i = 0; i < 40; ++i) p.row(i) << (i % 4), 0.0, 0.0;  // each point 10 times

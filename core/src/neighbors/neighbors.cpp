@@ -15,6 +15,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <limits>
+#include <utility>
+#include <vector>
 
 namespace nhnet {
 
@@ -71,6 +75,115 @@ Neighbors& Neighbors::operator=(Neighbors&&) noexcept = default;
 Eigen::Index Neighbors::size() const { return Eigen::Index(impl_->cloud.kdtree_get_point_count()); }
 
 namespace {
+
+/// nanoflann's KNNResultSet (1.4.x) keeps its k best sorted and inserts by shifting, O(k) per
+/// accepted point: at k = 300 (the noise-driven sizes of a noisy cloud) the neighbour search
+/// spent most of its time shifting. This set keeps them in a max-heap (O(log k)) and sorts once
+/// at the end. Same results, ties included: the heap orders by (distance, arrival), a full set
+/// rejects a point no nearer than its worst (KNNResultSet's `dist < worst` and its placement
+/// after equal distances) and evicts the latest-arrived of its farthest, as KNNResultSet drops
+/// its last slot; the final order is by distance, then arrival.
+class HeapResultSet {
+ public:
+  using DistanceType = float;
+  /// Empties the set for a query of `capacity` neighbours.
+  void init(size_t capacity) {
+    capacity_ = capacity;
+    heap_.clear();
+    heap_.reserve(capacity);
+    arrived_ = 0;
+  }
+  size_t size() const { return heap_.size(); }
+  bool full() const { return heap_.size() == capacity_; }
+  bool addPoint(float dist, uint32_t index) {
+    const Entry e{dist, arrived_++, index};
+    if (!full()) {
+      heap_.push_back(e);
+      std::push_heap(heap_.begin(), heap_.end());
+    } else if (dist < heap_.front().dist) {
+      std::pop_heap(heap_.begin(), heap_.end());
+      heap_.back() = e;
+      std::push_heap(heap_.begin(), heap_.end());
+    }
+    return true;
+  }
+  float worstDist() const {
+    return full() ? heap_.front().dist : std::numeric_limits<float>::max();
+  }
+  /// The neighbours nearest first into idx / d2 (size() entries each).
+  void sorted(uint32_t* idx, float* d2) {
+    std::sort_heap(heap_.begin(), heap_.end());
+    for (size_t j = 0; j < heap_.size(); ++j) {
+      idx[j] = heap_[j].index;
+      d2[j] = heap_[j].dist;
+    }
+  }
+
+ private:
+  struct Entry {
+    float dist;
+    uint64_t arrival;
+    uint32_t index;
+    bool operator<(const Entry& o) const {
+      return dist < o.dist || (dist == o.dist && arrival < o.arrival);
+    }
+  };
+  size_t capacity_ = 0;
+  uint64_t arrived_ = 0;
+  std::vector<Entry> heap_;
+};
+
+// From this many neighbours on, the heap replaces KNNResultSet's insertion.
+constexpr int kHeapFrom = 48;
+
+/// k nearest of q from a radius search: every point strictly within sqrt(r2) in the search's
+/// visiting order, the first k of them by (distance, visit) — what KNNResultSet keeps, ties
+/// included, since the k-NN search visits the same nodes in the same order and skips only
+/// subtrees strictly farther than its k-th. False when fewer than k lie within the radius.
+template <class TreeT>
+bool knn_by_radius(const TreeT& tree, const float* q, int kk, float r2, uint32_t* idx, float* d2) {
+  thread_local std::vector<std::pair<uint32_t, float>> found;
+  thread_local std::vector<uint32_t> order;
+  nanoflann::RadiusResultSet<float, uint32_t> set(r2, found);
+  tree.findNeighbors(set, q, nanoflann::SearchParams(32, 0.f, false));
+  if (found.size() < size_t(kk)) return false;
+  order.resize(found.size());
+  for (size_t t = 0; t < order.size(); ++t) order[t] = uint32_t(t);
+  auto nearer = [&](uint32_t a, uint32_t b) {
+    return found[a].second < found[b].second || (found[a].second == found[b].second && a < b);
+  };
+  std::nth_element(order.begin(), order.begin() + (kk - 1), order.end(), nearer);
+  std::sort(order.begin(), order.begin() + kk, nearer);
+  for (int j = 0; j < kk; ++j) {
+    idx[j] = found[order[size_t(j)]].first;
+    d2[j] = found[order[size_t(j)]].second;
+  }
+  return true;
+}
+
+// k nearest of q into idx / d2, nearest first; returns how many were found. From kHeapFrom
+// neighbours on: a radius search with the previous query's k-th distance (queries run in leaf
+// order, so the previous one is close by) widened by 20 %, widened again when it holds fewer
+// than k points, else the heap. A radius search adds every point within it in O(1); the
+// k-NN search's worst distance shrinks slowly at large k and admits thousands of points.
+template <class TreeT>
+size_t knn_search(const TreeT& tree, const float* q, int kk, uint32_t* idx, float* d2) {
+  if (kk < kHeapFrom) return tree.knnSearch(q, size_t(kk), idx, d2);
+  thread_local float last_r2 = 0;
+  for (float r2 = last_r2 * 1.44f; r2 > 0 && r2 < last_r2 * 12.f; r2 *= 2.25f)
+    if (knn_by_radius(tree, q, kk, r2, idx, d2)) {
+      last_r2 = d2[kk - 1];
+      return size_t(kk);
+    }
+  thread_local HeapResultSet set;
+  set.init(size_t(kk));
+  tree.findNeighbors(set, q, nanoflann::SearchParams());
+  const size_t found = set.size();
+  set.sorted(idx, d2);
+  if (found == size_t(kk)) last_r2 = d2[kk - 1];
+  return found;
+}
+
 // One kNN query of the point at leaf position p, self first; writes row `out` of the tables.
 template <class TreeT>
 void query_row(const TreeT& tree, const FloatCloud& cloud, const std::vector<uint32_t>& original,
@@ -81,7 +194,7 @@ void query_row(const TreeT& tree, const FloatCloud& cloud, const std::vector<uin
   idx.resize(kk);
   d2.resize(kk);
   const float* q = &cloud.xyz[3 * p];
-  const size_t found = tree.knnSearch(q, size_t(kk), idx.data(), d2.data());
+  const size_t found = knn_search(tree, q, kk, idx.data(), d2.data());
   (void)found;
   // Exact duplicates can put another point first: make the query point column 0.
   if (idx[0] != uint32_t(p)) {

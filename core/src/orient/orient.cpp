@@ -76,8 +76,65 @@ bool valid_normal(const Eigen::RowVector3d& n) {
   return std::isfinite(len) && len > 1e-12;
 }
 
-/// Adjacency lists over the rows of the points being oriented.
-using Adjacency = std::vector<std::vector<int32_t>>;
+/// Adjacency lists over the rows of the points being oriented, in one array (compressed rows:
+/// a million small vectors cost more to allocate and free than the MST takes to walk them).
+class Adjacency {
+ public:
+  /// The neighbours of one point, sorted.
+  struct Row {
+    const int32_t* b;
+    const int32_t* e;
+    const int32_t* begin() const { return b; }
+    const int32_t* end() const { return e; }
+  };
+  Row operator[](size_t i) const {
+    return {next_.data() + start_[i], next_.data() + start_[i + 1]};
+  }
+  size_t size() const { return start_.empty() ? 0 : start_.size() - 1; }
+
+  /// The symmetric graph of a neighbour table (an edge when either point lists the other among
+  /// its first `k` columns, self excluded): each row sorted, without repeats.
+  void link(const IndexMatrix& knn, int k, int threads);
+
+ private:
+  std::vector<int64_t> start_{0};  // row i is next_[start_[i], start_[i + 1])
+  std::vector<int32_t> next_;
+};
+
+void Adjacency::link(const IndexMatrix& knn, int k, int threads) {
+  const Eigen::Index m = knn.rows();
+  std::vector<int64_t> start(size_t(m) + 1, 0);
+  for (Eigen::Index i = 0; i < m; ++i)
+    for (Eigen::Index c = 1; c < k; ++c) {
+      const int32_t j = knn(i, c);
+      if (j == int32_t(i)) continue;
+      ++start[size_t(i) + 1];
+      ++start[size_t(j) + 1];
+    }
+  for (size_t i = 0; i < size_t(m); ++i) start[i + 1] += start[i];
+  std::vector<int32_t> next(size_t(start.back()));
+  std::vector<int64_t> fill(start.begin(), start.end() - 1);
+  for (Eigen::Index i = 0; i < m; ++i)
+    for (Eigen::Index c = 1; c < k; ++c) {
+      const int32_t j = knn(i, c);
+      if (j == int32_t(i)) continue;
+      next[size_t(fill[size_t(i)]++)] = j;
+      next[size_t(fill[size_t(j)]++)] = int32_t(i);
+    }
+  // Sort and deduplicate every row in place (count the survivors), then close the gaps.
+  std::vector<int64_t> kept(static_cast<size_t>(m));
+  detail::parallel_for(m, threads, nullptr, [&](int64_t i) {
+    int32_t* b = next.data() + start[size_t(i)];
+    int32_t* e = next.data() + start[size_t(i) + 1];
+    std::sort(b, e);
+    kept[size_t(i)] = std::unique(b, e) - b;
+  });
+  start_.assign(size_t(m) + 1, 0);
+  for (size_t i = 0; i < size_t(m); ++i) start_[i + 1] = start_[i] + kept[i];
+  next_.resize(size_t(start_.back()));
+  for (size_t i = 0; i < size_t(m); ++i)
+    std::copy_n(next.data() + start[i], kept[i], next_.data() + start_[i]);
+}
 
 /// The symmetric k-NN graph of the points being oriented, and the scales measured on it.
 struct Graph {
@@ -96,23 +153,20 @@ void gather_rows(const Points& points, const Normals& normals, const std::vector
   }
 }
 
-/// Symmetric k-NN graph (an edge when either point is among the other's k nearest, self
-/// included) as adjacency lists, with the mean and median distance to the nearest other point.
-void link_neighbours(const Neighbors& tree, const Points& pts, int k, const RunContext& sub,
-                     Graph& graph) {
+/// The symmetric k-NN graph of the first `k` columns of `knn` (an edge when either point is
+/// among the other's k nearest, self included) as adjacency lists, with the mean and median
+/// distance to the nearest other point.
+void link_neighbours(const Points& pts, const IndexMatrix& knn, int k, int threads, Graph& graph) {
   const Eigen::Index m = pts.rows();
-  IndexMatrix knn;
-  tree.knn_all(k, knn, nullptr, sub);
+  graph.adj.link(knn, k, threads);
   int64_t counted = 0;
   std::vector<double> nearest_all;
   nearest_all.reserve(size_t(m));
   for (Eigen::Index i = 0; i < m; ++i) {
     double nearest = std::numeric_limits<double>::infinity();
-    for (Eigen::Index c = 1; c < knn.cols(); ++c) {
+    for (Eigen::Index c = 1; c < k; ++c) {
       const int32_t j = knn(i, c);
       if (j == int32_t(i)) continue;
-      graph.adj[size_t(i)].push_back(j);
-      graph.adj[size_t(j)].push_back(int32_t(i));
       nearest = std::min(nearest, (pts.row(j) - pts.row(i)).norm());
     }
     if (std::isfinite(nearest)) {
@@ -123,19 +177,13 @@ void link_neighbours(const Neighbors& tree, const Points& pts, int k, const RunC
   }
   if (counted > 0) graph.spacing /= double(counted);
   graph.median_spacing = detail::quantile(std::move(nearest_all), 0.5);
-  for (auto& a : graph.adj) {
-    std::sort(a.begin(), a.end());
-    a.erase(std::unique(a.begin(), a.end()), a.end());
-  }
 }
 
-/// Smooth guide (OrientOptions::smooth_guide): PCA normals over the guide_k nearest neighbours,
-/// where they are finite.
-void smooth_guide(const Neighbors& tree, const Points& pts, int guide_k, const RunContext& sub,
+/// Smooth guide (OrientOptions::smooth_guide): PCA normals over the first guide_k columns of
+/// the shared neighbour table, where they are finite.
+void smooth_guide(const Points& pts, const IndexMatrix& knn, int guide_k, const RunContext& sub,
                   Normals& guide) {
-  IndexMatrix gknn;
-  tree.knn_all(guide_k, gknn, nullptr, sub);
-  const Normals pca = pca_normals(pts, gknn, PcaOptions{int(gknn.cols())}, sub).normals;
+  const Normals pca = pca_normals(pts, knn, PcaOptions{guide_k}, sub).normals;
   for (Eigen::Index i = 0; i < pts.rows(); ++i)
     if (pca.row(i).allFinite()) guide.row(i) = pca.row(i);
 }
@@ -143,35 +191,44 @@ void smooth_guide(const Neighbors& tree, const Points& pts, int guide_k, const R
 /// Noise: the median over the points of the median offset |(p_j - p_i) . g_i| of their graph
 /// neighbours (~0.95 sigma on a noisy plane); a median, so a wall's other side (a minority of
 /// the k nearest) does not count. 0 without edges.
-double guide_noise(const Points& pts, const Normals& guide, const Adjacency& adj) {
-  std::vector<double> typical;
-  typical.reserve(size_t(pts.rows()));
-  std::vector<double> off;
-  for (Eigen::Index i = 0; i < pts.rows(); ++i) {
+double guide_noise(const Points& pts, const Normals& guide, const Adjacency& adj, int threads) {
+  const Eigen::Index m = pts.rows();
+  std::vector<double> typical(size_t(m), -1.0);  // -1: no edges
+  detail::parallel_for(m, threads, nullptr, [&](int64_t i) {
+    thread_local std::vector<double> off;
     off.clear();
     for (int32_t j : adj[size_t(i)])
       off.push_back(std::abs(guide.row(i).dot(pts.row(j) - pts.row(i))));
-    if (off.empty()) continue;
+    if (off.empty()) return;
     std::nth_element(off.begin(), off.begin() + off.size() / 2, off.end());
-    typical.push_back(off[off.size() / 2]);
-  }
+    typical[size_t(i)] = off[off.size() / 2];
+  });
+  typical.erase(std::remove(typical.begin(), typical.end(), -1.0), typical.end());
   if (typical.empty()) return 0;
   std::nth_element(typical.begin(), typical.begin() + typical.size() / 2, typical.end());
   return typical[typical.size() / 2];
 }
 
-/// The graph over pts and its scales; smooths `guide` on the way (one kd-tree for both).
+/// The graph over pts and its scales; smooths `guide` on the way (one neighbour search for
+/// both: the graph takes the first k columns of the guide's guide_k-deep table).
 Graph build_graph(const Points& pts, Normals& guide, const OrientOptions& options) {
   const Eigen::Index m = pts.rows();
   Graph graph;
-  graph.adj.resize(static_cast<size_t>(m));
-  if (m <= 1) return graph;
+  if (m <= 1) {
+    graph.adj.link(IndexMatrix(m, 1), 1, 1);
+    return graph;
+  }
   const Neighbors tree(pts);
   RunContext sub;
   sub.threads = options.run.threads;
-  link_neighbours(tree, pts, int(std::min<Eigen::Index>(options.k, m)), sub, graph);
-  if (options.smooth_guide && m >= 3) smooth_guide(tree, pts, options.guide_k, sub, guide);
-  graph.noise = guide_noise(pts, guide, graph.adj);
+  const bool smooth = options.smooth_guide && m >= 3;
+  const int k = int(std::min<Eigen::Index>(options.k, m));
+  const int guide_k = int(std::min<Eigen::Index>(options.guide_k, m));
+  IndexMatrix knn;
+  tree.knn_all(smooth ? std::max(k, guide_k) : k, knn, nullptr, sub);
+  link_neighbours(pts, knn, k, sub.threads, graph);
+  if (smooth) smooth_guide(pts, knn, guide_k, sub, guide);
+  graph.noise = guide_noise(pts, guide, graph.adj, sub.threads);
   return graph;
 }
 
