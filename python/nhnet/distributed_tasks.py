@@ -46,6 +46,25 @@ def scan_chunk(chunk, sample_size, seed):
     return meta, sample
 
 
+def file_header(paths):
+    """dio.header_cloud's facts of the first readable tile file, from the core's reader (folder
+    inputs; an unreadable tile is reported by the scan)."""
+    import nhnet  # noqa: PLC0415
+    for path in paths:
+        try:
+            c = nhnet.read(path)
+            break
+        except Exception:  # noqa: BLE001,S112  (the scan reports it)
+            continue
+    else:
+        return {"normals": False, "sensor": None, "grid": None, "airborne": False}
+    sensor = None
+    if len(c.sensors) == 1 and not len(c.sensor_index):
+        sensor = (np.asarray(c.sensors[0].position).tolist(), c.sensors[0].source)
+    return {"normals": c.normals is not None, "sensor": sensor, "grid": c.grid,
+            "airborne": bool(c.airborne)}
+
+
 def plan(scans, tile_points):
     """The frame and the tile plan from every chunk's box and sample (on a worker: the samples
     never reach the client)."""
@@ -143,6 +162,8 @@ def estimate(t, boxes, decisions, options, orient, chunk_rows, scratch):
         vp = (np.asarray(orient["viewpoint"]) - orient["centre"]) * orient["scale"]
         normals = nh.orient(pts, normals, "viewpoint", viewpoint=vp,
                             threads=options["threads"]).normals
+    elif orient["mode"] == "up":  # per point where |n_z| >= up_min_z, the rest in the tile
+        normals = nh.orient(pts, normals, "up", threads=options["threads"]).normals
     elif orient["mode"] == "mst":
         normals = nh.orient(pts, normals, "mst", k=orient["k"], threads=options["threads"]).normals
         _save(os.path.join(scratch, "halo", f"t{t}.npz"), rows=rows[own:], owner=owner[own:],
@@ -194,10 +215,16 @@ def write_chunk(chunk, c, row0, signs, out, scratch):
             t = int(name[1:-4])
             r = np.load(os.path.join(d, name))
             normals[r["rows"] - row0] = r["normals"] * np.float32(signs.get(t, 1))
+    if out.get("keep"):  # the input normals' signs, per point (the core's orient_like)
+        ref = dio.read_normals(chunk)
+        flip = (normals.astype(np.float64) * ref).sum(axis=1) < 0
+        normals[flip] = -normals[flip]
     if out["kind"] == "folder":
         import nhnet  # noqa: PLC0415
         os.makedirs(os.path.dirname(out["paths"][c]), exist_ok=True)
         nhnet.write(out["paths"][c], pts, normals.astype(np.float64))
+    elif out["kind"] == "las":
+        dio.write_las_rows(chunk, out["tmp"], out["header"] + row0 * out["itemsize"], normals)
     elif out["kind"] == "text":
         dio.write_text_part(os.path.join(scratch, "parts", f"p{c:06d}.txt"), pts, normals)
     else:
