@@ -158,9 +158,10 @@ class Job:
         a = self.a
         folder = os.path.isdir(a.input) or any(ch in a.input for ch in "*?[")
         self.source = dio.describe_folder(a.input) if folder else dio.describe_file(a.input, a.chunk_bytes)
-        self.orient = resolve_orient(self.requested, self._header_cloud(), a.input)
-        self.log(f"method {self.options['method']}, orientation {self.orient['mode']} "
-                 f"({self.orient['source']})")
+        self.orient = None  # a folder's: from its files, after the scan
+        if not folder:
+            self._set_orient(resolve_orient(self.requested, dio.header_cloud(self.source),
+                                            a.input))
         self.out_kind = "folder" if folder else dio.output_kind(a.output)
         parent = a.scratch or (os.path.dirname(os.path.abspath(a.output)) if not folder
                                else os.path.abspath(a.output))
@@ -174,13 +175,30 @@ class Job:
             if self.tmp and os.path.exists(self.tmp):  # a failed run leaves no partial output
                 os.remove(self.tmp)
 
-    def _header_cloud(self):
-        """The input's header facts; for a folder, its first readable file's (read by a
-        worker), taken for the whole cloud."""
-        if self.source["kind"] != "folder":
-            return dio.header_cloud(self.source)
-        return self.client.submit(tasks.file_header, self.source["files"],
-                                  key=f"{self.token}-header").result()
+    def _set_orient(self, orient):
+        self.orient = orient
+        self.log(f"method {self.options['method']}, orientation {orient['mode']} "
+                 f"({orient['source']})")
+
+    def _folder_orient(self, metas):
+        """A folder's orientation: the rule of its first readable file, which every other file
+        must give too (the same mode and sensor), else exit 2: one decision for the cloud."""
+        facts = [(self.source["files"][i], m["facts"]) for i, m in enumerate(metas)
+                 if not m["error"]]
+        plans = []
+        for path, f in facts:
+            if f["several"] and self.requested["mode"] == "auto":
+                raise dio.SourceError(f"{path}: points from several sensors (E57 scans): "
+                                      "--orient sensors is not run by nhnet.distributed; give "
+                                      "--orient mst or viewpoint X Y Z, or use nhnet-cli")
+            plans.append((path, resolve_orient(self.requested, f, path)))
+        first_path, first = plans[0]
+        for path, o in plans[1:]:
+            if (o["mode"], o.get("viewpoint")) != (first["mode"], first.get("viewpoint")):
+                raise dio.SourceError(
+                    f"{self.a.input}: the tile files ask for different orientations ("
+                    f"{first_path}: {first['source']}; {path}: {o['source']}); give --orient")
+        self._set_orient(first)
 
     def _scan(self):
         chunks = dio.chunks(self.source)
@@ -209,6 +227,8 @@ class Job:
         c = self.client
         t0 = time.time()
         chunks, ok, rows0, layout, metas = self._scan()
+        if self.orient is None:
+            self._folder_orient(metas)
         lay = layout.result()
         self.log(f"{int(rows0[-1])} points ({lay['finite']} finite), {lay['tiles']} tiles, "
                  f"{len(ok)} chunks")

@@ -210,6 +210,10 @@ def describe_file(path, chunk_bytes=CHUNK_BYTES):
         src = _ply_header(path, head)
     elif head.startswith(b"LASF"):
         src = _las_header(path, head)
+    elif head.startswith(b"ASTM-E57"):
+        raise SourceError(f"{path}: a single E57 file is not cut into chunks by "
+                          "nhnet.distributed (its scans are compressed binary sections); give a "
+                          "folder of E57 / LAS / PLY tiles (each read whole), or use nhnet-cli")
     elif head.lstrip().upper().startswith((b"# .PCD", b"VERSION", b"FIELDS")):
         src = _pcd_header(path, head)
     else:
@@ -280,14 +284,19 @@ def _text_rows(chunk, columns):
     return vals.reshape(-1, 3)
 
 
+def read_cloud(path):
+    """A tile file read whole by the core's reader (the worker's copy of the bindings)."""
+    import nhnet  # noqa: PLC0415
+    try:
+        return nhnet.read(path)
+    except Exception as e:  # noqa: BLE001  (any reader error names the file)
+        raise SourceError(f"{path}: {e}") from None
+
+
 def read_chunk(chunk):
     """The chunk's points (n, 3) float64, in input order; non-finite rows kept."""
     if chunk["kind"] == "file":
-        import nhnet  # noqa: PLC0415  (the worker's copy of the bindings)
-        try:
-            return np.asarray(nhnet.read(chunk["path"]).points, dtype=np.float64)
-        except Exception as e:  # noqa: BLE001  (any reader error names the file)
-            raise SourceError(f"{chunk['path']}: {e}") from None
+        return np.asarray(read_cloud(chunk["path"]).points, dtype=np.float64)
     if chunk["kind"] in ("binary", "las"):
         rec = _records(chunk)
         if chunk["kind"] == "las":  # X * scale + offset, as the core's LAS reader

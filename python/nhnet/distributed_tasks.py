@@ -32,13 +32,18 @@ def _core():
 def scan_chunk(chunk, sample_size, seed):
     """Pass 1: count, finite count, bounding box and a random sample of the chunk's points; an
     unreadable chunk (a corrupt tile file) gives {'error': message} instead of failing the job."""
+    facts = None
     try:
-        pts = dio.read_chunk(chunk)
+        if chunk["kind"] == "file":
+            cloud = dio.read_cloud(chunk["path"])
+            pts, facts = np.asarray(cloud.points, dtype=np.float64), file_facts(cloud)
+        else:
+            pts = dio.read_chunk(chunk)
     except (dio.SourceError, OSError) as e:
         return {"error": str(e)}, None
     finite = np.isfinite(pts).all(axis=1)
     fp = pts[finite]
-    meta = {"count": len(pts), "finite": int(finite.sum()), "error": None,
+    meta = {"count": len(pts), "finite": int(finite.sum()), "error": None, "facts": facts,
             "lo": fp.min(axis=0) if len(fp) else None, "hi": fp.max(axis=0) if len(fp) else None}
     rng = np.random.default_rng(seed)
     take = min(len(fp), sample_size)
@@ -46,23 +51,16 @@ def scan_chunk(chunk, sample_size, seed):
     return meta, sample
 
 
-def file_header(paths):
-    """dio.header_cloud's facts of the first readable tile file, from the core's reader (folder
-    inputs; an unreadable tile is reported by the scan)."""
-    import nhnet  # noqa: PLC0415
-    for path in paths:
-        try:
-            c = nhnet.read(path)
-            break
-        except Exception:  # noqa: BLE001,S112  (the scan reports it)
-            continue
-    else:
-        return {"normals": False, "sensor": None, "grid": None, "airborne": False}
+def file_facts(cloud):
+    """dio.header_cloud's facts of a tile file read whole by the core's reader (folder inputs);
+    'sensor' is None with 'several' set when its points come from more than one sensor."""
+    used = set(np.unique(np.asarray(cloud.sensor_index)).tolist()) if len(cloud.sensor_index) else {0}
     sensor = None
-    if len(c.sensors) == 1 and not len(c.sensor_index):
-        sensor = (np.asarray(c.sensors[0].position).tolist(), c.sensors[0].source)
-    return {"normals": c.normals is not None, "sensor": sensor, "grid": c.grid,
-            "airborne": bool(c.airborne)}
+    if len(cloud.sensors) and used == {0}:
+        s = cloud.sensors[0]
+        sensor = (np.asarray(s.position).reshape(3).tolist(), s.source)
+    return {"normals": cloud.normals is not None, "sensor": sensor, "grid": cloud.grid,
+            "airborne": bool(cloud.airborne), "several": len(used) > 1 and len(cloud.sensors) > 1}
 
 
 def plan(scans, tile_points):

@@ -1,7 +1,10 @@
 """nhnet.distributed on a real Dask cluster: a `dask scheduler` and two `dask worker` processes on
 the loopback interface (subprocesses, as a user starts them), the command run against it and
 compared with one `nhnet-cli estimate` process of the same cloud; a worker killed during a run;
-a corrupt tile in a folder input; the client's peak memory on a cloud larger than its bound.
+a corrupt tile in a folder input; the client's peak memory on a cloud larger than its bound;
+nhnet-cli's defaults (--orient auto from a PCD VIEWPOINT, an airborne LAS -> up, input normals
+-> keep, a folder's one decision; the header rule against the core's), LAS in and out
+byte-compared with nhnet-cli's, LAZ / E57 single files refused with advice.
 
 Run by scripts/test.sh with PYTHONPATH=build/python; NHNET_BUILD_DIR (default <repo>/build)
 locates nhnet-cli. Python's Dask comes from Debian's python3-distributed (install-deps.sh).
@@ -359,16 +362,17 @@ def test_las_airborne_in_and_out(cluster, tmp_path):
     assert got.normals is not None and got.airborne
 
 
-def test_laz_input_refused_with_advice(cluster, tmp_path):
-    """LAZ is not cut into chunks: exit 2 naming the file, with the way round it."""
+def test_laz_and_e57_input_refused_with_advice(cluster, tmp_path):
+    """A single LAZ or E57 file is not cut into chunks: exit 2 naming the file, with the way
+    round it (decompress to LAS / a folder of tiles)."""
     inp = tmp_path / "a.las"
     airborne_las(inp, 2000, seed=9)
-    laz = tmp_path / "a.laz"
-    nhnet.write(str(laz), nhnet.read(str(inp)))
-    r = subprocess.run(distributed_cmd(cluster, laz, tmp_path / "o.ply"), capture_output=True,
-                       text=True, env=ENV)
-    assert r.returncode == 2, r.stderr
-    assert "a.laz" in r.stderr and "LAS" in r.stderr
+    for name, advice in (("a.laz", "LAS"), ("a.e57", "folder")):
+        nhnet.write(str(tmp_path / name), nhnet.read(str(inp)))
+        r = subprocess.run(distributed_cmd(cluster, tmp_path / name, tmp_path / "o.ply"),
+                           capture_output=True, text=True, env=ENV)
+        assert r.returncode == 2, r.stderr
+        assert name in r.stderr and advice in r.stderr, r.stderr
 
 
 def test_auto_rule_from_header_matches_core(tmp_path):
@@ -413,3 +417,25 @@ def test_auto_keeps_input_normals(cluster, tmp_path):
     got = nhnet.read(str(out)).normals
     dot = (got * ref).sum(axis=1)
     assert (dot[np.isfinite(dot)] > 0).all()
+
+
+def test_folder_auto_orientation_one_decision(cluster, tmp_path):
+    """A folder of PCD tiles: the same VIEWPOINT in every file -> viewpoint for the whole cloud
+    (every normal faces it); one tile with another VIEWPOINT -> exit 2 naming both rules."""
+    pts = box_surface(8000, seed=13).astype(np.float32).astype(np.float64)
+    src = tmp_path / "tiles"
+    src.mkdir()
+    for i, part in enumerate(np.array_split(np.argsort(pts[:, 0]), 2)):
+        write_pcd_viewpoint(src / f"t{i}.pcd", pts[part], (0.5, 0.35, 3))
+    r = subprocess.run(distributed_cmd(cluster, src, tmp_path / "out", "--method", "pca"),
+                       capture_output=True, text=True, env=ENV)
+    assert r.returncode == 0, r.stderr
+    assert "sensor from PCD VIEWPOINT at (0.5, 0.35, 3)" in r.stderr, r.stderr
+    for i in range(2):
+        got = nhnet.read(str(tmp_path / "out" / f"t{i}.pcd"))
+        d = ((np.array([0.5, 0.35, 3]) - got.points) * got.normals).sum(axis=1)
+        assert (d[np.isfinite(d)] >= 0).all()
+    write_pcd_viewpoint(src / "t1.pcd", pts[:100], (0, 0, 5))
+    r = subprocess.run(distributed_cmd(cluster, src, tmp_path / "out2", "--method", "pca"),
+                       capture_output=True, text=True, env=ENV)
+    assert r.returncode == 2 and "different orientations" in r.stderr, r.stderr
