@@ -2,18 +2,22 @@
 
     python3 -m nhnet.distributed estimate INPUT OUTPUT [--scheduler tcp://HOST:PORT]
         [--workers N] [--tile-points M] [--method pca|mfps|nhnet] [-k K] [--scales A,B,C]
-        [--orient mst[:K]|viewpoint X Y Z|none] [--seed S] [--threads T] [--scratch DIR]
+        [--orient auto|keep|up|mst[:K]|viewpoint X Y Z|sensors|none] [--seed S] [--threads T]
+        [--scratch DIR]
 
-INPUT is one file (binary or ASCII PLY, binary or ASCII PCD, XYZ text) or a folder / glob of
-tile files (any format nhnet reads; their union is the cloud); OUTPUT is one file (.ply, .pcd,
-.xyz...) with the points in input order, or a folder of tiles mirroring the input's. The passes:
+INPUT is one file (binary or ASCII PLY, binary or ASCII PCD, uncompressed LAS, XYZ text) or a
+folder / glob of tile files (any format nhnet reads; their union is the cloud); OUTPUT is one
+file (.ply, .pcd, .las for a LAS input, .xyz...) with the points in input order, or a folder of
+tiles mirroring the input's. Defaults as nhnet-cli: the core's default_method(), --orient auto
+decided once from the input's header by the core's rule (resolve_orient). The passes:
   1. scan: every chunk (byte or row range of the file, or one tile file) is read by a worker:
      count, box and a sample; the tile plan is placed on the sample (the core's plan_tiles);
   2. bin: every chunk's points into per-tile files in the scratch folder;
   3. the whole cloud's decisions, once: the noise probe tile by tile (rough then final, as the
      out-of-core run), noise level, spacing, sizes and halos, MFPS's candidate threshold;
   4. estimate: each tile plus its halo with those decisions (so a point's normal does not depend
-     on the cut), oriented per point (viewpoint) or by an MST per tile whose sign is reconciled
+     on the cut), oriented per point (viewpoint), up (per point, the near-vertical rest inside
+     the tile and its halo) or by an MST per tile whose sign is reconciled
      with the neighbouring tiles over the halos, from a seed, then one outward vote;
   5. write: every chunk writes its own rows of the output.
 The client holds only sizes, boxes and per-tile numbers; the points stay on the workers and the
@@ -54,14 +58,17 @@ def _parse(argv):
                    "auto: the machine's memory / --workers)")
     e.add_argument("--tile-points", type=int, default=1_000_000,
                    help="most points per tile (default 1000000)")
-    e.add_argument("-m", "--method", default="mfps", choices=["pca", "mfps", "nhnet"])
+    e.add_argument("-m", "--method", choices=["pca", "mfps", "nhnet"],
+                   help="default: the core's default_method(), as nhnet-cli (nhnet where the "
+                   "model is installed and libtorch built in, else mfps)")
     e.add_argument("-k", "--k", type=int, default=0, help="PCA size (0 = from the noise level)")
     e.add_argument("--scales", help="MFPS patch sizes, e.g. 50,100,150 (default: from the noise)")
     e.add_argument("--seed", type=int, default=1, help="seed of MFPS's random planes (default 1)")
     e.add_argument("--model", help="NH-Net model file (--method nhnet)")
     e.add_argument("--device", default="auto", help="NH-Net device: auto, cpu, cuda")
-    e.add_argument("--orient", nargs="+", default=["mst"], metavar="MODE",
-                   help="mst[:K] (default), viewpoint X Y Z, or none")
+    e.add_argument("--orient", nargs="+", default=["auto"], metavar="MODE",
+                   help="auto (default, as nhnet-cli: from the input's header), keep, up, "
+                   "mst[:K], viewpoint X Y Z, sensors or none")
     e.add_argument("--threads", type=int, default=1, help="core threads per task (default 1)")
     e.add_argument("--halo", type=float, default=4.0,
                    help="tile halo in radii of the largest neighbourhood (default 4)")
@@ -85,9 +92,40 @@ def _orient(words):
         if len(vals) != 3:
             raise dio.SourceError("--orient viewpoint needs 3 coordinates X Y Z")
         return {"mode": "viewpoint", "viewpoint": [float(v) for v in vals]}
-    if mode == "none" and len(words) == 1:
-        return {"mode": "none"}
-    raise dio.SourceError(f"--orient must be mst[:K], viewpoint X Y Z or none, got {' '.join(words)}")
+    if mode in ("none", "auto", "keep", "up", "sensors") and len(words) == 1:
+        return {"mode": mode, "k": 18}
+    raise dio.SourceError("--orient must be auto, keep, up, mst[:K], viewpoint X Y Z, sensors "
+                          f"or none, got {' '.join(words)}")
+
+
+def resolve_orient(orient, info, path):
+    """The whole run's orientation from the input's header `info` (dio.header_cloud), by the
+    core's rules (orient/auto.hpp resolve_orientation, same order and wording): input normals ->
+    keep; a sensor -> viewpoint; an organized grid -> viewpoint at the origin; airborne -> up;
+    else mst. Adds 'source', the one line the summary prints (nhnet-cli's orient_source)."""
+    o = dict(orient, source="requested")
+    if o["mode"] == "auto":
+        if info["normals"]:
+            o.update(mode="keep", source="input normals")
+        elif info["sensor"]:
+            p, name = info["sensor"]
+            o.update(mode="viewpoint", viewpoint=list(p),
+                     source=f"sensor from {name} at ({p[0]:g}, {p[1]:g}, {p[2]:g})")
+        elif info["grid"]:
+            w, h = info["grid"]
+            o.update(mode="viewpoint", viewpoint=[0.0, 0.0, 0.0],
+                     source=f"organized {w}x{h} grid: sensor at the origin")
+        elif info["airborne"]:
+            o.update(mode="up", source="airborne: up (+z)")
+        else:
+            o.update(mode="mst", source="no sensor in the file: MST")
+    if o["mode"] == "keep" and not info["normals"]:
+        raise dio.SourceError(f"{path}: --orient keep needs input normals (nx ny nz or "
+                              "normal_x normal_y normal_z fields)")
+    if o["mode"] == "sensors":
+        raise dio.SourceError(f"{path}: --orient sensors needs a sensor per point (E57 scans), "
+                              "which nhnet.distributed does not read; use nhnet-cli")
+    return o
 
 
 class Job:
@@ -97,7 +135,8 @@ class Job:
         self.a, self.client, self.log = args, client, log
         self.failed_inputs = []
         self.token = f"nhnet-{os.getpid()}-{time.time_ns()}"  # task names unique to this run
-        self.options = {"method": args.method, "k": args.k, "seed": args.seed,
+        method = args.method or tasks._core()._default_method()[0]
+        self.options = {"method": method, "k": args.k, "seed": args.seed,
                         "scales": [int(s) for s in args.scales.split(",")] if args.scales else None,
                         "threads": args.threads, "halo": args.halo, "model": args.model,
                         "device": args.device}
@@ -119,6 +158,10 @@ class Job:
         a = self.a
         folder = os.path.isdir(a.input) or any(ch in a.input for ch in "*?[")
         self.source = dio.describe_folder(a.input) if folder else dio.describe_file(a.input, a.chunk_bytes)
+        self.orient = None  # a folder's: from its files, after the scan
+        if not folder:
+            self._set_orient(resolve_orient(self.requested, dio.header_cloud(self.source),
+                                            a.input))
         self.out_kind = "folder" if folder else dio.output_kind(a.output)
         parent = a.scratch or (os.path.dirname(os.path.abspath(a.output)) if not folder
                                else os.path.abspath(a.output))
@@ -131,6 +174,31 @@ class Job:
             shutil.rmtree(self.scratch, ignore_errors=True)
             if self.tmp and os.path.exists(self.tmp):  # a failed run leaves no partial output
                 os.remove(self.tmp)
+
+    def _set_orient(self, orient):
+        self.orient = orient
+        self.log(f"method {self.options['method']}, orientation {orient['mode']} "
+                 f"({orient['source']})")
+
+    def _folder_orient(self, metas):
+        """A folder's orientation: the rule of its first readable file, which every other file
+        must give too (the same mode and sensor), else exit 2: one decision for the cloud."""
+        facts = [(self.source["files"][i], m["facts"]) for i, m in enumerate(metas)
+                 if not m["error"]]
+        plans = []
+        for path, f in facts:
+            if f["several"] and self.requested["mode"] == "auto":
+                raise dio.SourceError(f"{path}: points from several sensors (E57 scans): "
+                                      "--orient sensors is not run by nhnet.distributed; give "
+                                      "--orient mst or viewpoint X Y Z, or use nhnet-cli")
+            plans.append((path, resolve_orient(self.requested, f, path)))
+        first_path, first = plans[0]
+        for path, o in plans[1:]:
+            if (o["mode"], o.get("viewpoint")) != (first["mode"], first.get("viewpoint")):
+                raise dio.SourceError(
+                    f"{self.a.input}: the tile files ask for different orientations ("
+                    f"{first_path}: {first['source']}; {path}: {o['source']}); give --orient")
+        self._set_orient(first)
 
     def _scan(self):
         chunks = dio.chunks(self.source)
@@ -159,6 +227,8 @@ class Job:
         c = self.client
         t0 = time.time()
         chunks, ok, rows0, layout, metas = self._scan()
+        if self.orient is None:
+            self._folder_orient(metas)
         lay = layout.result()
         self.log(f"{int(rows0[-1])} points ({lay['finite']} finite), {lay['tiles']} tiles, "
                  f"{len(ok)} chunks")
@@ -182,6 +252,7 @@ class Job:
                               for t in sorted(boxes)], "estimating")
         signs = self._signs(results, boxes) if orient["mode"] == "mst" else {}
         failed = self._write(chunks, ok, rows0, signs, metas)
+        self.log(f"orientation: {orient['mode']} ({orient['source']})")
         self.log(f"{int(rows0[-1])} points, {failed} without a normal, "
                  f"{sum(r['candidates'] for r in results)} candidates, "
                  f"{time.time() - t0:.1f} s")
@@ -262,13 +333,23 @@ class Job:
             out = {"kind": "text"}
         else:
             ctype = dio.coordinate_type(self.source)
-            header = dio.output_header(self.out_kind, int(rows0[-1]), ctype)
+            if self.out_kind == "las":
+                if self.source.get("kind") != "las":
+                    raise dio.SourceError(f"{a.output}: LAS output needs a LAS input (its "
+                                          "records are kept); write .ply or .pcd")
+                lo = np.min([m["lo"] for m in metas if not m["error"]], axis=0)
+                hi = np.max([m["hi"] for m in metas if not m["error"]], axis=0)
+                header, itemsize = dio.las_output_header(self.source, lo, hi)
+            else:
+                header = dio.output_header(self.out_kind, int(rows0[-1]), ctype)
+                itemsize = dio.output_dtype(ctype).itemsize
             self.tmp = f"{a.output}.tmp-dask{os.getpid()}"
             with open(self.tmp, "wb") as f:  # the client writes the header and sizes the file
                 f.write(header)
-                f.truncate(len(header) + int(rows0[-1]) * dio.output_dtype(ctype).itemsize)
-            out = {"kind": "binary", "tmp": self.tmp, "header": len(header), "ctype": ctype,
-                   "itemsize": dio.output_dtype(ctype).itemsize}
+                f.truncate(len(header) + int(rows0[-1]) * itemsize)
+            out = {"kind": "las" if self.out_kind == "las" else "binary", "tmp": self.tmp,
+                   "header": len(header), "ctype": ctype, "itemsize": itemsize}
+        out["keep"] = self.orient["mode"] == "keep"
         failed = sum(self._wait([c.submit(tasks.write_chunk, chunks[i], i, int(rows0[i]), signs,
                                           out, self.scratch, key=f"{self.token}-write-{i}") for i in ok],
                                 "writing"))
@@ -318,7 +399,7 @@ def main(argv=None):
     client = _client(args, log)
     try:
         job = Job(args, client, log)
-        job.orient = orient
+        job.requested = orient
         code = job.run()
     except dio.SourceError as e:
         log(f"error: {e}")

@@ -32,18 +32,35 @@ def _core():
 def scan_chunk(chunk, sample_size, seed):
     """Pass 1: count, finite count, bounding box and a random sample of the chunk's points; an
     unreadable chunk (a corrupt tile file) gives {'error': message} instead of failing the job."""
+    facts = None
     try:
-        pts = dio.read_chunk(chunk)
+        if chunk["kind"] == "file":
+            cloud = dio.read_cloud(chunk["path"])
+            pts, facts = np.asarray(cloud.points, dtype=np.float64), file_facts(cloud)
+        else:
+            pts = dio.read_chunk(chunk)
     except (dio.SourceError, OSError) as e:
         return {"error": str(e)}, None
     finite = np.isfinite(pts).all(axis=1)
     fp = pts[finite]
-    meta = {"count": len(pts), "finite": int(finite.sum()), "error": None,
+    meta = {"count": len(pts), "finite": int(finite.sum()), "error": None, "facts": facts,
             "lo": fp.min(axis=0) if len(fp) else None, "hi": fp.max(axis=0) if len(fp) else None}
     rng = np.random.default_rng(seed)
     take = min(len(fp), sample_size)
     sample = fp[rng.choice(len(fp), take, replace=False)] if take < len(fp) else fp
     return meta, sample
+
+
+def file_facts(cloud):
+    """dio.header_cloud's facts of a tile file read whole by the core's reader (folder inputs);
+    'sensor' is None with 'several' set when its points come from more than one sensor."""
+    used = set(np.unique(np.asarray(cloud.sensor_index)).tolist()) if len(cloud.sensor_index) else {0}
+    sensor = None
+    if len(cloud.sensors) and used == {0}:
+        s = cloud.sensors[0]
+        sensor = (np.asarray(s.position).reshape(3).tolist(), s.source)
+    return {"normals": cloud.normals is not None, "sensor": sensor, "grid": cloud.grid,
+            "airborne": bool(cloud.airborne), "several": len(used) > 1 and len(cloud.sensors) > 1}
 
 
 def plan(scans, tile_points):
@@ -143,6 +160,8 @@ def estimate(t, boxes, decisions, options, orient, chunk_rows, scratch):
         vp = (np.asarray(orient["viewpoint"]) - orient["centre"]) * orient["scale"]
         normals = nh.orient(pts, normals, "viewpoint", viewpoint=vp,
                             threads=options["threads"]).normals
+    elif orient["mode"] == "up":  # per point where |n_z| >= up_min_z, the rest in the tile
+        normals = nh.orient(pts, normals, "up", threads=options["threads"]).normals
     elif orient["mode"] == "mst":
         normals = nh.orient(pts, normals, "mst", k=orient["k"], threads=options["threads"]).normals
         _save(os.path.join(scratch, "halo", f"t{t}.npz"), rows=rows[own:], owner=owner[own:],
@@ -194,10 +213,16 @@ def write_chunk(chunk, c, row0, signs, out, scratch):
             t = int(name[1:-4])
             r = np.load(os.path.join(d, name))
             normals[r["rows"] - row0] = r["normals"] * np.float32(signs.get(t, 1))
+    if out.get("keep"):  # the input normals' signs, per point (the core's orient_like)
+        ref = dio.read_normals(chunk)
+        flip = (normals.astype(np.float64) * ref).sum(axis=1) < 0
+        normals[flip] = -normals[flip]
     if out["kind"] == "folder":
         import nhnet  # noqa: PLC0415
         os.makedirs(os.path.dirname(out["paths"][c]), exist_ok=True)
         nhnet.write(out["paths"][c], pts, normals.astype(np.float64))
+    elif out["kind"] == "las":
+        dio.write_las_rows(chunk, out["tmp"], out["header"] + row0 * out["itemsize"], normals)
     elif out["kind"] == "text":
         dio.write_text_part(os.path.join(scratch, "parts", f"p{c:06d}.txt"), pts, normals)
     else:

@@ -4,6 +4,7 @@
 #include "bindings.hpp"
 
 #include "nhnet/errors.hpp"
+#include "nhnet/pipeline/estimate.hpp"
 #include "nhnet/pipeline/tiles.hpp"
 
 #include <pybind11/eigen.h>
@@ -133,6 +134,15 @@ void register_tiles(py::module_& m) {
         return py::array_t<int32_t>(py::ssize_t(t.size()), t.data());
       },
       "The tile of each point (frame units) under a plan from _plan_tiles.");
+  m.def(
+      "_default_method",
+      [] {
+        std::string why;
+        const Method chosen = default_method(&why);
+        return py::make_tuple(std::string(to_string(chosen)), why);
+      },
+      "(name, why) of the core's default method (estimate.hpp default_method(); why is empty "
+      "unless it fell back to MFPS): every front end's default.");
   m.def("_probe_step", &probe_step);
   m.def("_variation_step", &variation_step);
   m.def(

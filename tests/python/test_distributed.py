@@ -1,7 +1,10 @@
 """nhnet.distributed on a real Dask cluster: a `dask scheduler` and two `dask worker` processes on
 the loopback interface (subprocesses, as a user starts them), the command run against it and
 compared with one `nhnet-cli estimate` process of the same cloud; a worker killed during a run;
-a corrupt tile in a folder input; the client's peak memory on a cloud larger than its bound.
+a corrupt tile in a folder input; the client's peak memory on a cloud larger than its bound;
+nhnet-cli's defaults (--orient auto from a PCD VIEWPOINT, an airborne LAS -> up, input normals
+-> keep, a folder's one decision; the header rule against the core's), LAS in and out
+byte-compared with nhnet-cli's, LAZ / E57 single files refused with advice.
 
 Run by scripts/test.sh with PYTHONPATH=build/python; NHNET_BUILD_DIR (default <repo>/build)
 locates nhnet-cli. Python's Dask comes from Debian's python3-distributed (install-deps.sh).
@@ -275,3 +278,164 @@ def test_malformed_single_file_exit_2(cluster, tmp_path):
                                        "20000"), capture_output=True, text=True, env=ENV)
     assert r.returncode == 2, r.stderr
     assert "bad.xyz" in r.stderr and not out.exists()
+
+
+def write_pcd_viewpoint(path, pts, viewpoint):
+    """Binary PCD with a VIEWPOINT line (a sensor pose, as PCL writes it)."""
+    head = ("# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
+            f"WIDTH {len(pts)}\nHEIGHT 1\nVIEWPOINT {' '.join(map(str, viewpoint))} 1 0 0 0\n"
+            f"POINTS {len(pts)}\nDATA binary\n")
+    path.write_bytes(head.encode() + pts.astype("<f4").tobytes())
+
+
+def test_auto_orientation_pcd_viewpoint(cluster, tmp_path):
+    """No --orient: the PCD's VIEWPOINT decides every sign, as nhnet-cli's default (auto) does,
+    and the summary says so."""
+    pts = box_surface(20_000, seed=5).astype(np.float32).astype(np.float64)
+    inp, out, ref_out = tmp_path / "c.pcd", tmp_path / "o.pcd", tmp_path / "r.ply"
+    write_pcd_viewpoint(inp, pts, (0.5, 0.35, 3))
+    ref = subprocess.run([str(CLI), "estimate", str(inp), str(ref_out), "--method", "pca"],
+                         check=True, capture_output=True, text=True, env=ENV)
+    r = subprocess.run(distributed_cmd(cluster, inp, out, "--method", "pca", "--tile-points",
+                                       "5000"), capture_output=True, text=True, env=ENV)
+    assert r.returncode == 0, r.stderr
+    assert "sensor from PCD VIEWPOINT at (0.5, 0.35, 3)" in r.stderr, r.stderr
+    assert "sensor from PCD VIEWPOINT at (0.5, 0.35, 3)" in ref.stdout + ref.stderr
+    share, flipped, _ = compare(nhnet.read(str(ref_out)).normals, nhnet.read(str(out)).normals)
+    assert share >= 0.999 and flipped == 0, (share, flipped)
+
+
+def airborne_las(path, n, seed):
+    """An airborne LAS 1.4 (point format 6, an extra-bytes field): rolling ground and a 2 x 2 x
+    1.5 m building (roof and walls), with intensity, classification and GPS time to keep."""
+    import laspy
+    rng = np.random.default_rng(seed)
+    m = n * 4 // 5
+    g = rng.random((m, 2)) * 10
+    ground = np.column_stack([g, 0.2 * np.sin(g[:, 0]) + 0.1 * np.cos(0.7 * g[:, 1])])
+    b = rng.random((n - m, 3))
+    face = rng.integers(0, 5, n - m)  # 0: roof, 1-4: walls of [4, 6] x [4, 6] x [0.3, 1.8]
+    b[face == 0, 2] = 1.0
+    b[face == 1, 0], b[face == 2, 0], b[face == 3, 1], b[face == 4, 1] = 0, 1, 0, 1
+    building = np.column_stack([4 + 2 * b[:, 0], 4 + 2 * b[:, 1], 0.3 + 1.5 * b[:, 2]])
+    pts = np.vstack([ground, building]) + rng.normal(0, 0.003, (n, 3))
+    header = laspy.LasHeader(point_format=6, version="1.4")
+    header.scales, header.offsets = [0.001] * 3, [100.0, 200.0, 0.0]
+    header.add_extra_dim(laspy.ExtraBytesParams(name="height", type=np.float32))
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = pts[:, 0] + 100, pts[:, 1] + 200, pts[:, 2]
+    las.intensity = rng.integers(0, 65535, n)
+    las.classification = np.where(np.arange(n) < m, 2, 6)
+    las.gps_time = np.arange(n) * 1e-3
+    las.height = pts[:, 2].astype(np.float32)
+    las.write(str(path))
+
+
+def test_las_airborne_in_and_out(cluster, tmp_path):
+    """An airborne LAS in, LAS out, no --orient: up (+z) as nhnet-cli's auto; the output's
+    header, VLRs and every input record are byte-identical to nhnet-cli's, only the NormalX/Y/Z
+    floats may differ: within 0.5 degrees for 99.9 % (the tiles' decisions equal the untiled
+    run's; rounding of the re-centred tiles and MFPS ties remain), same signs (up decides each
+    non-vertical point alone; the walls' signs are propagated inside tiles with halos)."""
+    inp, out, ref_out = tmp_path / "a.las", tmp_path / "o.las", tmp_path / "r.las"
+    airborne_las(inp, 30_000, seed=6)
+    subprocess.run([str(CLI), "estimate", str(inp), str(ref_out), "--method", "pca"],
+                   check=True, capture_output=True, env=ENV)
+    r = subprocess.run(distributed_cmd(cluster, inp, out, "--method", "pca", "--tile-points",
+                                       "8000", "--chunk-bytes", "300000"),
+                       capture_output=True, text=True, env=ENV)
+    assert r.returncode == 0, r.stderr
+    assert "airborne: up (+z)" in r.stderr, r.stderr
+    a, b = ref_out.read_bytes(), out.read_bytes()
+    assert len(a) == len(b)
+    start = int.from_bytes(a[96:100], "little")
+    size = int.from_bytes(a[105:107], "little")
+    assert a[:start] == b[:start]  # header (bounds, counts) and VLRs
+    ra = np.frombuffer(a[start:], np.uint8).reshape(-1, size)
+    rb = np.frombuffer(b[start:], np.uint8).reshape(-1, size)
+    assert (ra[:, :-12] == rb[:, :-12]).all()  # every input record bit-exact
+    na = ra[:, -12:].copy().view("<f4").astype(np.float64)
+    nb = rb[:, -12:].copy().view("<f4").astype(np.float64)
+    share, flipped, valid = compare(na, nb)
+    assert valid > 29_000 and share >= 0.999 and flipped == 0, (share, flipped)
+    got = nhnet.read(str(out))
+    assert got.normals is not None and got.airborne
+
+
+def test_laz_and_e57_input_refused_with_advice(cluster, tmp_path):
+    """A single LAZ or E57 file is not cut into chunks: exit 2 naming the file, with the way
+    round it (decompress to LAS / a folder of tiles)."""
+    inp = tmp_path / "a.las"
+    airborne_las(inp, 2000, seed=9)
+    for name, advice in (("a.laz", "LAS"), ("a.e57", "folder")):
+        nhnet.write(str(tmp_path / name), nhnet.read(str(inp)))
+        r = subprocess.run(distributed_cmd(cluster, tmp_path / name, tmp_path / "o.ply"),
+                           capture_output=True, text=True, env=ENV)
+        assert r.returncode == 2, r.stderr
+        assert name in r.stderr and advice in r.stderr, r.stderr
+
+
+def test_auto_rule_from_header_matches_core(tmp_path):
+    """The client decides --orient auto from the header alone (dio.header_cloud); on PLY camera,
+    organized PLY / PCD, PCD VIEWPOINT, input normals, LAS and plain files its rule and wording
+    are the core's (nhnet.orient(..., 'auto') on the file read whole)."""
+    from nhnet import distributed as dist
+    from nhnet import distributed_io as dio
+    p = box_surface(600, seed=10)
+    cam = nhnet.Cloud(p)
+    cam.sensors = [nhnet.Sensor([1, 2, 3])]
+    grid = nhnet.Cloud(p)
+    grid.grid, grid.sensors = (30, 20), [nhnet.Sensor([0, 0, 0])]
+    files = {"cam.ply": cam, "grid.ply": grid, "grid.pcd": grid, "plain.ply": nhnet.Cloud(p),
+             "plain.pcd": nhnet.Cloud(p), "n.pcd": nhnet.Cloud(p, normals=p)}
+    for name, cloud in files.items():
+        nhnet.write(str(tmp_path / name), cloud)
+    write_pcd_viewpoint(tmp_path / "vp.pcd", p, (0.5, -1, 2))
+    airborne_las(tmp_path / "a.las", 600, seed=11)
+    for name in [*files, "vp.pcd", "a.las"]:
+        path = str(tmp_path / name)
+        src = dio.describe_file(path)
+        mine = dist.resolve_orient({"mode": "auto", "k": 18}, dio.header_cloud(src), path)
+        cloud = nhnet.read(path)
+        core = nhnet.orient(cloud, np.tile([0.0, 0.0, 1.0], (len(cloud), 1)), "auto")
+        assert (mine["mode"], mine["source"]) == (core.mode, core.source), name
+
+
+def test_auto_keeps_input_normals(cluster, tmp_path):
+    """A PLY with normals and no --orient: auto -> keep, every output normal on its input
+    normal's side (half of the input normals point inward: the MST would not give that)."""
+    pts = box_surface(8000, seed=12)
+    rng = np.random.default_rng(12)
+    ref = nhnet.estimate(pts, method="pca", orient=None).normals
+    ref *= np.where(rng.random(len(pts)) < 0.5, -1.0, 1.0)[:, None]
+    inp, out = tmp_path / "n.ply", tmp_path / "o.ply"
+    nhnet.write(str(inp), nhnet.Cloud(pts, normals=ref))
+    r = subprocess.run(distributed_cmd(cluster, inp, out, "--method", "pca", "--tile-points",
+                                       "3000"), capture_output=True, text=True, env=ENV)
+    assert r.returncode == 0, r.stderr
+    assert "keep (input normals)" in r.stderr, r.stderr
+    got = nhnet.read(str(out)).normals
+    dot = (got * ref).sum(axis=1)
+    assert (dot[np.isfinite(dot)] > 0).all()
+
+
+def test_folder_auto_orientation_one_decision(cluster, tmp_path):
+    """A folder of PCD tiles: the same VIEWPOINT in every file -> viewpoint for the whole cloud
+    (every normal faces it); one tile with another VIEWPOINT -> exit 2 naming both rules."""
+    pts = box_surface(8000, seed=13).astype(np.float32).astype(np.float64)
+    src = tmp_path / "tiles"
+    src.mkdir()
+    for i, part in enumerate(np.array_split(np.argsort(pts[:, 0]), 2)):
+        write_pcd_viewpoint(src / f"t{i}.pcd", pts[part], (0.5, 0.35, 3))
+    r = subprocess.run(distributed_cmd(cluster, src, tmp_path / "out", "--method", "pca"),
+                       capture_output=True, text=True, env=ENV)
+    assert r.returncode == 0, r.stderr
+    assert "sensor from PCD VIEWPOINT at (0.5, 0.35, 3)" in r.stderr, r.stderr
+    for i in range(2):
+        got = nhnet.read(str(tmp_path / "out" / f"t{i}.pcd"))
+        d = ((np.array([0.5, 0.35, 3]) - got.points) * got.normals).sum(axis=1)
+        assert (d[np.isfinite(d)] >= 0).all()
+    write_pcd_viewpoint(src / "t1.pcd", pts[:100], (0, 0, 5))
+    r = subprocess.run(distributed_cmd(cluster, src, tmp_path / "out2", "--method", "pca"),
+                       capture_output=True, text=True, env=ENV)
+    assert r.returncode == 2 and "different orientations" in r.stderr, r.stderr
