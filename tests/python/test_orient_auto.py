@@ -139,3 +139,51 @@ def test_report_names_the_orientation_source(tmp_path):
     f = json.loads(report.read_text())["files"][0]
     assert f["orient"] == "viewpoint"
     assert f["orient_source"] == "sensor from PCD VIEWPOINT at (0, 0, 0)"
+
+
+def test_e57_two_stations_each_point_faces_its_own_scanner(tmp_path):
+    # Two stations in a room with a statue (tools/virtual_scan.py: the CGAL demo mesh "bull"), one
+    # E57 with both scans and their poses (written by pye57, as a scanner's software would): with
+    # no flag every point faces the station that saw it. Each station sees its own side of the
+    # statue, so one viewpoint for both would turn part of the other scan away; the MST turns the
+    # closed room's normals outward, away from both.
+    sys.path.insert(0, str(REPO / "training"))
+    import virtual_scan as vs
+    stations = [vs.terrestrial((1.6, -1.2, 1.5), model="bull", az_steps=240, el_steps=80, seed=2),
+                vs.terrestrial((-1.8, 1.3, 1.4), model="bull", az_steps=240, el_steps=80, seed=4)]
+    vs.write_e57(tmp_path / "room.e57", stations)
+    out = tmp_path / "out.ply"
+    run = subprocess.run([str(CLI), "estimate", str(tmp_path / "room.e57"), str(out),
+                          "--method", "pca", "--json"], capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    assert "2 sensors" in json.loads(run.stdout)["orient_source"]
+    cloud = nhnet.read(str(out))
+    pts, nrm = np.asarray(cloud.points), np.asarray(cloud.normals)
+    own = np.vstack([np.broadcast_to(s.position, s.points.shape) for s in stations])
+    assert len(pts) == len(own)
+    cos = np.einsum("ij,ij->i", own - pts, nrm)
+    ok = np.isfinite(cos)
+    assert ok.mean() > 0.99
+    assert (cos[ok] > 0).mean() >= MIN_FACING
+    # the other station's position: the statue's sides facing away from it (the walls, seen from
+    # inside, face both), so the per-scan sensor is what made the difference
+    other = np.vstack([np.broadcast_to(s.position, s.points.shape) for s in stations[::-1]])
+    assert (np.einsum("ij,ij->i", other - pts, nrm)[ok] > 0).mean() < 0.995
+
+
+def test_airborne_las_faces_up_without_flags(tmp_path):
+    # An airborne LAS survey (no sensor poses; eastings near 500 km, mm scale): with no flag the
+    # ground and roofs face up. Threshold as Up mode's: |n_z| >= 0.5 decides by the sign of n_z.
+    sys.path.insert(0, str(REPO / "training"))
+    import virtual_scan as vs
+    survey = vs.airborne(extent=60.0, spacing=0.6)
+    vs.write_las(tmp_path / "survey.las", survey)
+    out = tmp_path / "out.las"
+    run = subprocess.run([str(CLI), "estimate", str(tmp_path / "survey.las"), str(out),
+                          "--method", "pca", "--json"], capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    assert "airborne" in json.loads(run.stdout)["orient_source"]
+    nrm = np.asarray(nhnet.read(str(out)).normals)
+    decided = np.abs(nrm[:, 2]) >= 0.5
+    assert decided.mean() > 0.9
+    assert (nrm[decided, 2] > 0).all()
