@@ -141,6 +141,14 @@ def test_report_names_the_orientation_source(tmp_path):
     assert f["orient_source"] == "sensor from PCD VIEWPOINT at (0, 0, 0)"
 
 
+def pca_no_flag(src, out):
+    """nhnet-cli estimate SRC OUT --method pca, no orientation flag; returns the orient_source."""
+    run = subprocess.run([str(CLI), "estimate", str(src), str(out), "--method", "pca", "--json"],
+                         capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    return json.loads(run.stdout)["orient_source"]
+
+
 def test_e57_two_stations_each_point_faces_its_own_scanner(tmp_path):
     # Two stations in a room with a statue (tools/virtual_scan.py: the CGAL demo mesh "bull"), one
     # E57 with both scans and their poses (written by pye57, as a scanner's software would): with
@@ -153,10 +161,8 @@ def test_e57_two_stations_each_point_faces_its_own_scanner(tmp_path):
                 vs.terrestrial((-1.8, 1.3, 1.4), model="bull", az_steps=240, el_steps=80, seed=4)]
     vs.write_e57(tmp_path / "room.e57", stations)
     out = tmp_path / "out.ply"
-    run = subprocess.run([str(CLI), "estimate", str(tmp_path / "room.e57"), str(out),
-                          "--method", "pca", "--json"], capture_output=True, text=True)
-    assert run.returncode == 0, run.stderr
-    assert "2 sensors" in json.loads(run.stdout)["orient_source"]
+    source = pca_no_flag(tmp_path / "room.e57", out)
+    assert "2 sensors" in source
     cloud = nhnet.read(str(out))
     pts, nrm = np.asarray(cloud.points), np.asarray(cloud.normals)
     own = np.vstack([np.broadcast_to(s.position, s.points.shape) for s in stations])
@@ -179,10 +185,8 @@ def test_airborne_las_faces_up_without_flags(tmp_path):
     survey = vs.airborne(extent=60.0, spacing=0.6)
     vs.write_las(tmp_path / "survey.las", survey)
     out = tmp_path / "out.las"
-    run = subprocess.run([str(CLI), "estimate", str(tmp_path / "survey.las"), str(out),
-                          "--method", "pca", "--json"], capture_output=True, text=True)
-    assert run.returncode == 0, run.stderr
-    assert "airborne" in json.loads(run.stdout)["orient_source"]
+    source = pca_no_flag(tmp_path / "survey.las", out)
+    assert "airborne" in source
     nrm = np.asarray(nhnet.read(str(out)).normals)
     decided = np.abs(nrm[:, 2]) >= 0.5
     assert decided.mean() > 0.9
