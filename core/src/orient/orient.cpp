@@ -91,10 +91,6 @@ class Adjacency {
     return {next_.data() + start_[i], next_.data() + start_[i + 1]};
   }
   size_t size() const { return start_.empty() ? 0 : start_.size() - 1; }
-  /// Position of row i's first entry among all rows' entries (for arrays aligned with them).
-  int64_t offset(size_t i) const { return start_[i]; }
-  /// Entries of all rows together.
-  int64_t entries() const { return start_.empty() ? 0 : start_.back(); }
 
   /// The symmetric graph of a neighbour table (an edge when either point lists the other among
   /// its first `k` columns, self excluded): each row sorted, without repeats.
@@ -272,26 +268,7 @@ class Prim {
         graph_(graph),
         options_(options),
         progress_(progress),
-        visited_(static_cast<size_t>(pts.rows()), 0),
-        cost_(static_cast<size_t>(graph.adj.entries())) {
-    // Every edge's cost, in parallel, once per pair (the graph is symmetric, and so is c_ij to
-    // the last bit): |c_ij| does not change when Prim turns a guide (both terms of c_ij change
-    // sign exactly), so these equal the costs computed at the push.
-    const Adjacency& adj = graph_.adj;
-    detail::parallel_for(pts.rows(), options.run.threads, nullptr, [&](int64_t u) {
-      const int64_t base = adj.offset(size_t(u));
-      const auto row = adj[size_t(u)];
-      for (const int32_t* it = row.begin(); it != row.end(); ++it) {
-        const int32_t v = *it;
-        if (v < u) continue;  // the pair's lower point computes it
-        const double cost = 1.0 - std::abs(consistency(int32_t(u), v));
-        cost_[size_t(base + (it - row.begin()))] = cost;
-        const auto back = adj[size_t(v)];
-        const int32_t* at = std::lower_bound(back.begin(), back.end(), int32_t(u));
-        cost_[size_t(adj.offset(size_t(v)) + (at - back.begin()))] = cost;
-      }
-    });
-  }
+        visited_(static_cast<size_t>(pts.rows()), 0) {}
 
   /// Consistency of the pair (i, j): c_ij > 0 when the signs agree. Hoppe: g_i . g_j.
   /// Reflection (OrientOptions::reflect): g_i mirrored at the bisecting plane of p_i p_j,
@@ -323,11 +300,8 @@ class Prim {
   /// Marks u as reached and queues its edges to points not yet reached; reports progress.
   void visit(int32_t u) {
     visited_[size_t(u)] = 1;
-    const double* cost = cost_.data() + graph_.adj.offset(size_t(u));
-    for (int32_t v : graph_.adj[size_t(u)]) {
-      if (!visited_[size_t(v)]) heap_.push(Edge{*cost, u, v});
-      ++cost;
-    }
+    for (int32_t v : graph_.adj[size_t(u)])
+      if (!visited_[size_t(v)]) heap_.push(Edge{1.0 - std::abs(consistency(u, v)), u, v});
     if ((++done_ & 4095) == 0 && options_.run.progress &&
         !progress_.report(double(done_) / double(pts_.rows())))
       progress_.throw_if_cancelled();
@@ -359,7 +333,6 @@ class Prim {
   const OrientOptions& options_;
   detail::Progress& progress_;
   std::vector<uint8_t> visited_;
-  std::vector<double> cost_;  // 1 - |c_uv| of every adjacency entry, aligned with graph_.adj
   std::priority_queue<Edge> heap_;
   int64_t done_ = 0;
 };
