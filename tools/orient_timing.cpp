@@ -22,9 +22,12 @@ int main(int argc, char** argv) {
   for (int i = 2; i + 1 < argc; i += 2) {
     const std::string a = argv[i];
     const int v = std::atoi(argv[i + 1]);
-    if (a == "--threads") threads = v;
-    else if (a == "--repeat") repeat = v;
-    else if (a == "--pca-k") pca_k = v;
+    if (a == "--threads")
+      threads = v;
+    else if (a == "--repeat")
+      repeat = v;
+    else if (a == "--pca-k")
+      pca_k = v;
     else {
       std::fprintf(stderr, "unknown option %s\n", a.c_str());
       return 2;
@@ -56,6 +59,7 @@ int main(int argc, char** argv) {
                 s, (long long)res.flipped, (long long)res.unoriented, (long long)res.components,
                 (unsigned long long)digest);
   }
-  std::printf("points %lld threads %d best %.3f s\n", (long long)cloud.points.rows(), threads, best);
+  std::printf("points %lld threads %d best %.3f s\n", (long long)cloud.points.rows(), threads,
+              best);
   return 0;
 }
