@@ -307,7 +307,7 @@ class Job:
         hs, dilations, max_leak = nh._sides_grid_plan(lo, hi, spacing, typical)
         for i, (h, dil) in enumerate(zip(hs, dilations)):
             frame = nh._sides_grid_frame(lo, hi, h, dil)
-            occ = [c.submit(tasks.occupy, t, boxes, dec["halo"], frame, self.scratch,
+            occ = [c.submit(tasks.occupy, t, frame, self.scratch,
                             key=f"{self.token}-occupy-{i}-{t}") for t in tiles]
             path = c.submit(tasks.fill_grid, frame, occ, self.scratch, f"g{i}",
                             key=f"{self.token}-grid-{i}")

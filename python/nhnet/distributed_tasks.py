@@ -167,6 +167,7 @@ def estimate(t, boxes, decisions, options, orient, chunk_rows, scratch):
         ok = np.isfinite(pts[:own]).all(axis=1) & np.isfinite(normals[:own]).all(axis=1) & \
             (np.abs(normals[:own]).sum(axis=1) > 0)
         p = pts[:own][ok]
+        _save(os.path.join(scratch, "ownp", f"t{t}.npz"), p=p)  # for the grids' occupancy
         base.update(near_sum=float(near.sum()), near_count=len(near),
                     lo=p.min(axis=0) if len(p) else None, hi=p.max(axis=0) if len(p) else None)
         return base
@@ -195,12 +196,10 @@ def _own_valid(t, boxes, halo, scratch):
     return pts, rows, owner, own, normals
 
 
-def occupy(t, boxes, halo, frame, scratch):
+def occupy(t, frame, scratch):
     """The voxels of the grid `frame` that tile t's own points with a valid normal occupy."""
-    pts, _, _, own, normals = _own_valid(t, boxes, halo, scratch)
-    ok = np.isfinite(pts[:own]).all(axis=1) & np.isfinite(normals[:own]).all(axis=1) & \
-        (np.abs(normals[:own]).sum(axis=1) > 0)
-    return np.unique(_core()._sides_grid_voxels(frame, pts[:own][ok]))
+    p = np.load(os.path.join(scratch, "ownp", f"t{t}.npz"))["p"]
+    return np.unique(_core()._sides_grid_voxels(frame, p))
 
 
 def fill_grid(frame, occupied, scratch, name):
