@@ -575,20 +575,6 @@ void orient_keep(Normals& normals, const Normals& reference, const std::vector<i
   res.flipped = orient_like(normals, reference);
 }
 
-/// Viewpoint: every normal towards the sensor, (v - p_i) . n_i > 0.
-void orient_viewpoint(const Points& points, Normals& normals, const Eigen::Vector3d& viewpoint,
-                      const std::vector<int64_t>& used, OrientResult& res) {
-  for (int64_t i : used) {
-    const double d = (viewpoint.transpose() - points.row(i)).dot(normals.row(i));
-    if (d < 0) {
-      normals.row(i) *= -1.0;
-      ++res.flipped;
-    } else if (!(d > 0)) {
-      ++res.unoriented;
-    }
-  }
-}
-
 }  // namespace
 
 OrientResult orient_normals(const Points& points, Normals& normals, const OrientOptions& options,
@@ -602,10 +588,12 @@ OrientResult orient_normals(const Points& points, Normals& normals, const Orient
     case OrientMode::None: break;
     case OrientMode::Keep: orient_keep(normals, reference, used, res); break;
     case OrientMode::Viewpoint:
-      orient_viewpoint(points, normals, options.viewpoint, used, res);
+      detail::orient_towards(points, normals, {options.viewpoint}, {}, used, res);
       break;
     case OrientMode::Mst: orient_mst_deduplicated(points, normals, used, options, res); break;
-    case OrientMode::Sensors: detail::orient_sensors(points, normals, options, used, res); break;
+    case OrientMode::Sensors:
+      detail::orient_towards(points, normals, options.sensors, options.sensor_index, used, res);
+      break;
     case OrientMode::Up: {
       const Normals before = normals;
       OrientResult mst;
