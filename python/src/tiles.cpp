@@ -2,6 +2,7 @@
 // (leading underscore) that take and return numpy arrays, plain numbers and dicts, so that Dask
 // can ship their inputs and results between processes.
 #include "bindings.hpp"
+#include "dict_fields.hpp"
 
 #include "nhnet/errors.hpp"
 #include "nhnet/orient/orient.hpp"
@@ -27,11 +28,11 @@ Eigen::RowVector3d row3(const py::handle& a, const char* what) {
 
 py::dict plan_to_dict(const TilePlan& p) {
   py::dict d;
-  d["axis"] = py::array_t<int>(py::ssize_t(p.axis.size()), p.axis.data());
-  d["value"] = py::array_t<double>(py::ssize_t(p.value.size()), p.value.data());
-  d["left"] = py::array_t<int>(py::ssize_t(p.left.size()), p.left.data());
-  d["right"] = py::array_t<int>(py::ssize_t(p.right.size()), p.right.data());
-  d["leaf"] = py::array_t<int>(py::ssize_t(p.leaf.size()), p.leaf.data());
+  d["axis"] = to_numpy(p.axis);
+  d["value"] = to_numpy(p.value);
+  d["left"] = to_numpy(p.left);
+  d["right"] = to_numpy(p.right);
+  d["leaf"] = to_numpy(p.leaf);
   d["cell_lo"] = to_numpy(p.cell_lo);
   d["cell_hi"] = to_numpy(p.cell_hi);
   return d;
@@ -86,33 +87,13 @@ OrientOptions mst_options(int k, int threads, const py::object& grid, bool insid
   return o;
 }
 
-py::dict decisions_to_dict(const TileDecisions& t) {
-  py::dict d;
-  d["noise_ratio"] = t.noise_ratio;
-  d["spacing"] = t.spacing;
-  d["far_radius"] = t.far_radius;
-  d["far_k"] = t.far_k;
-  d["k_smooth"] = t.k_smooth;
-  d["scales"] = t.scales;
-  d["halo"] = t.halo;
-  d["variation_halo"] = t.variation_halo;
-  d["variation_threshold"] = t.variation_threshold;
-  return d;
-}
-
-TileDecisions decisions_from_dict(const py::dict& d) {
-  TileDecisions t;
-  t.noise_ratio = d["noise_ratio"].cast<double>();
-  t.spacing = d["spacing"].cast<double>();
-  t.far_radius = d["far_radius"].cast<double>();
-  t.far_k = d["far_k"].cast<int>();
-  t.k_smooth = d["k_smooth"].cast<int>();
-  t.scales = d["scales"].cast<std::vector<int>>();
-  t.halo = d["halo"].cast<double>();
-  t.variation_halo = d["variation_halo"].cast<double>();
-  t.variation_threshold = d["variation_threshold"].cast<double>();
-  return t;
-}
+/// TileDecisions as the dict nhnet.distributed ships between processes (both directions).
+const auto kDecisionFields = std::make_tuple(
+    field("noise_ratio", &TileDecisions::noise_ratio), field("spacing", &TileDecisions::spacing),
+    field("far_radius", &TileDecisions::far_radius), field("far_k", &TileDecisions::far_k),
+    field("k_smooth", &TileDecisions::k_smooth), field("scales", &TileDecisions::scales),
+    field("halo", &TileDecisions::halo), field("variation_halo", &TileDecisions::variation_halo),
+    field("variation_threshold", &TileDecisions::variation_threshold));
 
 /// The estimator's options from the job's (a dict: method, k, scales, seed, threads, halo, model,
 /// device).
@@ -133,21 +114,20 @@ py::dict decide(const std::vector<std::tuple<DistanceMatrix, Eigen::VectorXd>>& 
                 const py::dict& options, int64_t finite) {
   std::vector<TileProbeRows> r;
   for (const auto& [d2, residual] : rows) r.push_back({d2, residual});
-  return decisions_to_dict(decide_tiles(r, options_from_dict(options), finite));
+  return fields_to_dict(decide_tiles(r, options_from_dict(options), finite), kDecisionFields);
 }
 
 py::tuple estimate(const py::handle& points, const py::dict& options, const py::dict& decisions) {
   const Points pts = to_points(points, "points");
   const EstimateOptions o = options_from_dict(options);
-  const TileDecisions d = decisions_from_dict(decisions);
+  const auto d = fields_from_dict<TileDecisions>(decisions, kDecisionFields);
   EstimateResult r;
   {
     py::gil_scoped_release release;
     r = estimate_tile(pts, o, d);
   }
-  py::array_t<uint8_t> candidate(py::ssize_t(r.candidate.size()), r.candidate.data());
-  return py::make_tuple(to_numpy(r.normals), to_numpy_mask(r.valid), candidate, r.warnings,
-                        r.k_used, r.scales_used);
+  return py::make_tuple(to_numpy(r.normals), to_numpy_mask(r.valid), to_numpy(r.candidate),
+                        r.warnings, r.k_used, r.scales_used);
 }
 
 }  // namespace
@@ -171,8 +151,7 @@ void register_tiles(py::module_& m) {
       "_route_tiles",
       [](const py::dict& plan, const py::handle& points) {
         const Points p = to_points(points, "points");
-        const std::vector<int32_t> t = route_tiles(plan_from_dict(plan), p);
-        return py::array_t<int32_t>(py::ssize_t(t.size()), t.data());
+        return to_numpy(route_tiles(plan_from_dict(plan), p));
       },
       "The tile of each point (frame units) under a plan from _plan_tiles.");
   m.def(
