@@ -5,6 +5,8 @@
 #include "dict_fields.hpp"
 
 #include "nhnet/errors.hpp"
+#include "nhnet/orient/orient.hpp"
+#include "nhnet/orient/sides_grid.hpp"
 #include "nhnet/pipeline/estimate.hpp"
 #include "nhnet/pipeline/tiles.hpp"
 
@@ -44,6 +46,45 @@ TilePlan plan_from_dict(const py::dict& d) {
   p.right = d["right"].cast<std::vector<int>>();
   p.leaf = d["leaf"].cast<std::vector<int>>();
   return p;
+}
+
+py::dict grid_to_dict(const SidesGrid& g) {
+  py::dict d;
+  d["origin"] = to_numpy(Points(g.origin));
+  d["h"] = g.h;
+  d["dilation"] = g.dilation;
+  d["dims"] = std::vector<int64_t>(g.dims.begin(), g.dims.end());
+  return d;
+}
+
+/// A SidesGrid from grid_to_dict's fields, with d["cell"] (uint8 array) when `cells`.
+SidesGrid grid_from_dict(const py::dict& d, bool cells) {
+  SidesGrid g;
+  g.origin = row3(d["origin"], "grid origin");
+  g.h = d["h"].cast<double>();
+  g.dilation = d["dilation"].cast<int>();
+  const auto dims = d["dims"].cast<std::vector<int64_t>>();
+  if (dims.size() != 3) throw InvalidOptions("sides grid: dims must be 3 numbers");
+  std::copy(dims.begin(), dims.end(), g.dims.begin());
+  if (cells) {
+    const auto c =
+        py::array_t<uint8_t, py::array::c_style | py::array::forcecast>::ensure(d["cell"]);
+    if (!c) throw InvalidOptions("sides grid: cell must be a uint8 array");
+    g.cell.assign(c.data(), c.data() + c.size());
+  }
+  return g;
+}
+
+/// The MST options of a tile: k neighbours, threads, the whole cloud's grid when given.
+OrientOptions mst_options(int k, int threads, const py::object& grid, bool inside_outside) {
+  OrientOptions o;
+  o.mode = OrientMode::Mst;
+  o.k = k;
+  o.run.threads = threads;
+  o.inside_outside = inside_outside;
+  if (!grid.is_none())
+    o.sides = std::make_shared<const SidesGrid>(grid_from_dict(grid.cast<py::dict>(), true));
+  return o;
 }
 
 /// TileDecisions as the dict nhnet.distributed ships between processes (both directions).
@@ -155,6 +196,94 @@ void register_tiles(py::module_& m) {
   m.def(
       "_variation_threshold", [](const Eigen::VectorXd& v) { return variation_threshold(v); },
       "MFPS's candidate threshold from surface variations.");
+  m.def(
+      "_mst_nearest",
+      [](const py::handle& points, const py::handle& normals, int64_t own, int k, int threads) {
+        const Points p = to_points(points, "points");
+        const Normals n = to_points(normals, "normals");
+        std::vector<double> d;
+        {
+          py::gil_scoped_release release;
+          d = mst_nearest(p, n, own, mst_options(k, threads, py::none(), true));
+        }
+        return py::array_t<double>(py::ssize_t(d.size()), d.data());
+      },
+      "Nearest-point distances of a tile's distinct valid own points in the MST graph "
+      "(orient.hpp mst_nearest).");
+  m.def(
+      "_sides_grid_plan",
+      [](const py::handle& lo, const py::handle& hi, double spacing, double typical) {
+        const SidesGridPlan p = sides_grid_plan(row3(lo, "lo"), row3(hi, "hi"), spacing, typical);
+        return py::make_tuple(p.h, p.dilation, p.max_leak);
+      },
+      "(voxel sizes, dilations, max_leak) of the flood-fill grids the MST tries for a cloud "
+      "(sides_grid.hpp).");
+  m.def(
+      "_sides_grid_frame",
+      [](const py::handle& lo, const py::handle& hi, double h, int dilation) {
+        SidesGrid g = sides_grid_frame(row3(lo, "lo"), row3(hi, "hi"), h, dilation);
+        return grid_to_dict(g);
+      },
+      "The flood-fill grid's frame (dict: origin, h, dilation, dims) over a box (sides_grid.hpp).");
+  m.def(
+      "_sides_grid_voxels",
+      [](const py::dict& grid, const py::handle& points) {
+        const std::vector<int64_t> v =
+            sides_grid_voxels(grid_from_dict(grid, false), to_points(points, "points"));
+        return py::array_t<int64_t>(py::ssize_t(v.size()), v.data());
+      },
+      "The voxel index of each point in a grid frame from _sides_grid_frame.");
+  m.def(
+      "_fill_sides_grid",
+      [](const py::dict& grid, const std::vector<int64_t>& occupied) {
+        SidesGrid g = grid_from_dict(grid, false);
+        g.cell.assign(size_t(g.dims[0] * g.dims[1] * g.dims[2]), 0);
+        {
+          py::gil_scoped_release release;
+          fill_sides_grid(g, occupied);
+        }
+        return py::array_t<uint8_t>(py::ssize_t(g.cell.size()), g.cell.data());
+      },
+      "The cells (uint8, 2 = outside) of a grid frame with the occupied voxels, dilated and "
+      "flood-filled.");
+  m.def(
+      "_mst_guides",
+      [](const py::handle& points, const py::handle& normals, int64_t own, int k, int threads) {
+        const Points p = to_points(points, "points");
+        const Normals n = to_points(normals, "normals");
+        MstGuides g;
+        {
+          py::gil_scoped_release release;
+          g = mst_guides(p, n, own, mst_options(k, threads, py::none(), true));
+        }
+        return py::make_tuple(to_numpy(g.points), to_numpy(g.guides));
+      },
+      "(points, guides) of a tile's distinct valid own points (orient.hpp mst_guides).");
+  m.def(
+      "_sides_leaked",
+      [](const py::handle& points, const py::handle& guides, const py::dict& grid, int threads) {
+        const Points p = to_points(points, "points");
+        const Normals g = to_points(guides, "guides");
+        const SidesGrid grid_cells = grid_from_dict(grid, true);
+        py::gil_scoped_release release;
+        return sides_leaked(p, g, grid_cells, threads);
+      },
+      "How many points leak on a grid with cells (orient.hpp sides_leaked).");
+  m.def(
+      "_orient_mst_tile",
+      [](const py::handle& points, const py::handle& normals, int k, int threads,
+         const py::object& grid, bool inside_outside) {
+        const Points p = to_points(points, "points");
+        Normals n = to_points(normals, "normals");
+        const OrientOptions o = mst_options(k, threads, grid, inside_outside);
+        {
+          py::gil_scoped_release release;
+          orient_normals(p, n, o);
+        }
+        return to_numpy(n);
+      },
+      "A tile's normals oriented by the MST, voting on the whole cloud's grid (dict with cell) "
+      "when given, with no flood fill when inside_outside is False.");
   m.def("_estimate_tile", &estimate,
         "One tile (own points then halo, frame units) with the whole cloud's decisions: "
         "(normals, valid, candidate, warnings, k_used, scales_used).");

@@ -142,6 +142,7 @@ struct Graph {
   double noise = 0;           ///< typical offset of a neighbour from a point's guide plane
   double spacing = 0;         ///< mean distance to the nearest other point (the flood fill's unit)
   double median_spacing = 0;  ///< its median (blind to a few far outliers)
+  std::vector<double> nearest;  ///< per point, that distance (+inf without edges)
 };
 
 /// Copies the rows `used` of points and normals into pts and guide (unit length: the first guide).
@@ -159,6 +160,7 @@ void gather_rows(const Points& points, const Normals& normals, const std::vector
 void link_neighbours(const Points& pts, const IndexMatrix& knn, int k, int threads, Graph& graph) {
   const Eigen::Index m = pts.rows();
   graph.adj.link(knn, k, threads);
+  graph.nearest.assign(size_t(m), std::numeric_limits<double>::infinity());
   int64_t counted = 0;
   std::vector<double> nearest_all;
   nearest_all.reserve(size_t(m));
@@ -169,6 +171,7 @@ void link_neighbours(const Points& pts, const IndexMatrix& knn, int k, int threa
       if (j == int32_t(i)) continue;
       nearest = std::min(nearest, (pts.row(j) - pts.row(i)).norm());
     }
+    graph.nearest[size_t(i)] = nearest;
     if (std::isfinite(nearest)) {
       graph.spacing += nearest;
       nearest_all.push_back(nearest);
@@ -381,8 +384,10 @@ std::unique_ptr<detail::InsideOutside> grow_from_sides(Prim& prim, const Points&
                                                        OrientResult& res) {
   detail::InsideOutsideOptions io;
   io.typical_spacing = graph.median_spacing;
-  auto sides =
-      std::make_unique<detail::InsideOutside>(pts, guide, graph.spacing, io, options.run.threads);
+  auto sides = options.sides ? std::make_unique<detail::InsideOutside>(pts, guide, *options.sides,
+                                                                       options.run.threads)
+                             : std::make_unique<detail::InsideOutside>(pts, guide, graph.spacing,
+                                                                       io, options.run.threads);
   res.voxel = sides->voxel();
   std::vector<int8_t> vote = sides->votes();
   for (Eigen::Index i = 0; i < guide.rows(); ++i)
@@ -604,6 +609,72 @@ OrientResult orient_normals(const Points& points, Normals& normals, const Orient
     case OrientMode::Auto: break;  // refused by check_options
   }
   return res;
+}
+
+namespace {
+
+/// A tile's distinct valid rows (ascending), their points and guides, and the MST's graph.
+struct TileGraph {
+  std::vector<int64_t> rows;
+  Points pts;
+  Normals guide;
+  Graph graph;
+};
+
+TileGraph tile_graph(const Points& points, const Normals& normals, int64_t own,
+                     const OrientOptions& options) {
+  if (normals.rows() != points.rows() || own < 0 || own > points.rows())
+    throw InvalidOptions("orient tile: " + std::to_string(normals.rows()) + " normals for " +
+                         std::to_string(points.rows()) + " points, " + std::to_string(own) +
+                         " of them own");
+  OrientResult ignored;
+  TileGraph t;
+  t.rows = valid_rows(points, normals, ignored);
+  detail::dedupe_exact(points, t.rows);
+  std::sort(t.rows.begin(), t.rows.end());  // input order, as orient_mst_deduplicated
+  t.pts.resize(Eigen::Index(t.rows.size()), 3);
+  t.guide.resize(Eigen::Index(t.rows.size()), 3);
+  gather_rows(points, normals, t.rows, t.pts, t.guide);
+  t.graph = build_graph(t.pts, t.guide, options);
+  return t;
+}
+
+}  // namespace
+
+std::vector<double> mst_nearest(const Points& points, const Normals& normals, int64_t own,
+                                const OrientOptions& options) {
+  OrientOptions plain = options;
+  plain.smooth_guide = false;  // the graph's first k columns are the same without the guide
+  const TileGraph t = tile_graph(points, normals, own, plain);
+  std::vector<double> out;
+  for (size_t i = 0; i < t.rows.size(); ++i)
+    if (t.rows[i] < own && i < t.graph.nearest.size() && std::isfinite(t.graph.nearest[i]))
+      out.push_back(t.graph.nearest[i]);
+  return out;
+}
+
+MstGuides mst_guides(const Points& points, const Normals& normals, int64_t own,
+                     const OrientOptions& options) {
+  const TileGraph t = tile_graph(points, normals, own, options);
+  std::vector<Eigen::Index> mine;
+  for (size_t i = 0; i < t.rows.size(); ++i)
+    if (t.rows[i] < own) mine.push_back(Eigen::Index(i));
+  MstGuides out;
+  out.points.resize(Eigen::Index(mine.size()), 3);
+  out.guides.resize(Eigen::Index(mine.size()), 3);
+  for (size_t i = 0; i < mine.size(); ++i) {
+    out.points.row(Eigen::Index(i)) = t.pts.row(mine[i]);
+    out.guides.row(Eigen::Index(i)) = t.guide.row(mine[i]);
+  }
+  return out;
+}
+
+int64_t sides_leaked(const Points& points, const Normals& guides, const SidesGrid& grid,
+                     int threads) {
+  if (guides.rows() != points.rows())
+    throw InvalidOptions("sides_leaked: " + std::to_string(guides.rows()) + " guides for " +
+                         std::to_string(points.rows()) + " points");
+  return detail::InsideOutside(points, guides, grid, threads).leaked();
 }
 
 }  // namespace nhnet
