@@ -2,13 +2,16 @@
 """Benchmark of nhnet.distributed: one cloud, 1 and 2 Dask workers against one nhnet-cli process.
 
     /usr/bin/python3 bench/distributed_bench.py [--points 20000000] [--method mfps]
-        [--tile-points 1000000] [--workers 1,2] [--out docs/benchmark/distributed]
+        [--tile-points 1000000] [--workers 1,2] [--orient WORDS] [--out docs/benchmark/distributed]
 
 For each worker count W it starts a `dask scheduler` and W `dask worker` processes (one thread
 each, no nanny) on 127.0.0.1, runs `python3 -m nhnet.distributed estimate` against them and
 reads every worker's peak resident memory (VmHWM) before stopping them; the reference is one
 `nhnet-cli estimate --threads W` process of the same file with the same --tile-points. Overhead =
-distributed wall time / nhnet-cli wall time - 1. Writes table.md and results.json into --out.
+distributed wall time / nhnet-cli wall time - 1. Writes table.md and results.json into --out
+(after every configuration, so an interrupted run keeps what it measured), with the machine's
+load average (/proc/loadavg, 1 min) sampled during every timed run: this project's machine is
+shared, and the load says how much of it the run had. --orient: both runs' orientation.
 Needs PYTHONPATH=build/python (the bindings) and build/cli/nhnet-cli (NHNET_BUILD_DIR).
 """
 
@@ -50,12 +53,18 @@ def peak_kb(pid):
     return 0
 
 
+LOADS = []  # 1-minute load averages sampled during the current timed run
+
+
 def timed(cmd):
     """Wall seconds and peak RSS (MiB) of a command, polling /proc."""
     t0 = time.time()
     p = subprocess.Popen(cmd, env=ENV, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    peak = 0
+    peak, tick = 0, 0
     while p.poll() is None:
+        tick += 1
+        if tick % 50 == 1:
+            LOADS.append(float(Path("/proc/loadavg").read_text().split()[0]))
         try:
             peak = max(peak, peak_kb(p.pid))
         except (FileNotFoundError, ProcessLookupError):
@@ -87,7 +96,7 @@ def distributed(workers, inp, out, args, tmp):
         wall, client_mb, err = timed([sys.executable, "-m", "nhnet.distributed", "estimate",
                                       str(inp), str(out), "--scheduler", address, "--quiet",
                                       "--method", args.method, "--tile-points",
-                                      str(args.tile_points)])
+                                      str(args.tile_points), "--orient", *args.orient.split()])
         worker_mb = [peak_kb(w.pid) / 1024 for w in ws]
     finally:
         for p in ws + procs:
@@ -104,6 +113,8 @@ def main():
     ap.add_argument("--method", default="mfps", choices=["pca", "mfps"])
     ap.add_argument("--tile-points", type=int, default=1_000_000)
     ap.add_argument("--workers", default="1,2")
+    ap.add_argument("--orient", default="auto",
+                    help="nhnet-cli's --orient words for both runs (default auto: the MST here)")
     ap.add_argument("--out", default=str(REPO / "docs" / "benchmark" / "distributed"))
     args = ap.parse_args()
     rows = []
@@ -111,15 +122,25 @@ def main():
         inp = Path(tmp) / "cloud.ply"
         cloud(args.points, inp)
         for w in [int(x) for x in args.workers.split(",")]:
+            LOADS.clear()
             cli_s, cli_mb, _ = timed([str(BUILD / "cli" / "nhnet-cli"), "estimate", str(inp),
                                       str(Path(tmp) / "ref.ply"), "--method", args.method,
                                       "--threads", str(w), "--tile-points",
-                                      str(args.tile_points), "-q", "--overwrite"])
+                                      str(args.tile_points), "--orient", *args.orient.split(),
+                                      "-q", "--overwrite"])
+            cli_load = list(LOADS)
+            LOADS.clear()
             d = distributed(w, inp, Path(tmp) / "out.ply", args, tmp)
             rows.append({"workers": w, "cli_s": cli_s, "cli_peak_mb": cli_mb, **d,
                          "points_per_s": args.points / d["wall_s"],
-                         "overhead": d["wall_s"] / cli_s - 1})
+                         "overhead": d["wall_s"] / cli_s - 1,
+                         "cli_load": [min(cli_load), sum(cli_load) / len(cli_load), max(cli_load)],
+                         "load": [min(LOADS), sum(LOADS) / len(LOADS), max(LOADS)]})
             print(json.dumps(rows[-1]), flush=True)
+            write_table(args, rows)
+
+
+def write_table(args, rows):
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     (out / "results.json").write_text(json.dumps(rows, indent=1) + "\n")
@@ -130,15 +151,19 @@ def main():
              f"Machine: {platform.node()}, {os.cpu_count()} cores; "
              f"{datetime.datetime.utcnow():%Y-%m-%d %H:%M} UTC; commit {commit}.",
              f"Command: `/usr/bin/python3 bench/distributed_bench.py --points {args.points} "
-             f"--method {args.method} --tile-points {args.tile_points} --workers {args.workers}`",
+             f"--method {args.method} --tile-points {args.tile_points} --workers {args.workers} "
+             f"--orient '{args.orient}'`",
              "", "| workers | nhnet.distributed s | points/s | peak MiB per worker | client peak "
-             "MiB | nhnet-cli --threads W s | nhnet-cli peak MiB | overhead |",
-             "|---|---|---|---|---|---|---|---|"]
+             "MiB | nhnet-cli --threads W s | nhnet-cli peak MiB | overhead | load avg (min/mean/"
+             "max) distributed; nhnet-cli |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    def load(v):
+        return "/".join(f"{x:.1f}" for x in v)
     for r in rows:
         lines.append(f"| {r['workers']} | {r['wall_s']:.1f} | {r['points_per_s']:,.0f} | "
                      f"{', '.join(f'{m:.0f}' for m in r['worker_peak_mb'])} | "
                      f"{r['client_peak_mb']:.0f} | {r['cli_s']:.1f} | {r['cli_peak_mb']:.0f} | "
-                     f"{100 * r['overhead']:+.0f} % |")
+                     f"{100 * r['overhead']:+.0f} % | {load(r['load'])}; {load(r['cli_load'])} |")
     (out / "table.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
 

@@ -250,6 +250,12 @@ class Job:
         results = self._wait([c.submit(tasks.estimate, t, boxes, dec, self.options, orient,
                                        rows0[:-1], self.scratch, key=f"{self.token}-estimate-{t}")
                               for t in sorted(boxes)], "estimating")
+        if orient["mode"] == "mst":
+            frame, path = self._sides(results, boxes, dec, orient)
+            results = self._wait([c.submit(tasks.orient_tile, r["tile"], boxes, dec, self.options,
+                                           orient, rows0[:-1], self.scratch, frame, path, r,
+                                           key=f"{self.token}-orient-{r['tile']}")
+                                  for r in results], "orienting")
         signs = self._signs(results, boxes) if orient["mode"] == "mst" else {}
         failed = self._write(chunks, ok, rows0, signs, metas)
         self.log(f"orientation: {orient['mode']} ({orient['source']})")
@@ -281,6 +287,40 @@ class Job:
             self._wait(parts, "surface variation", gather=False)
             dec["variation_threshold"] = c.submit(tasks.threshold, parts).result()
         return dec
+
+    def _sides(self, results, boxes, dec, orient):
+        """MST: the whole cloud's flood-fill grid, decided as one process decides it (the
+        core's sides_grid_plan on the MST graph's spacing over every tile, then the first
+        candidate whose leak summed over the tiles is below the limit), built on a worker from
+        every tile's occupied voxels. Returns (frame, path of its cells), (None, None) when no
+        grid is watertight: then no tile floods its own (an open tile always leaks)."""
+        c, nh, tiles = self.client, tasks._core(), sorted(boxes)
+        count = sum(r["near_count"] for r in results)
+        boxed = [r for r in results if r["lo"] is not None]
+        if count < 4 or not boxed:
+            return None, None
+        spacing = sum(r["near_sum"] for r in results) / count
+        typical = c.submit(tasks.median_spacing, tiles, self.scratch,
+                           key=f"{self.token}-median-spacing").result()
+        lo = np.min([r["lo"] for r in boxed], axis=0)
+        hi = np.max([r["hi"] for r in boxed], axis=0)
+        hs, dilations, max_leak = nh._sides_grid_plan(lo, hi, spacing, typical)
+        for i, (h, dil) in enumerate(zip(hs, dilations)):
+            frame = nh._sides_grid_frame(lo, hi, h, dil)
+            occ = [c.submit(tasks.occupy, t, frame, self.scratch,
+                            key=f"{self.token}-occupy-{i}-{t}") for t in tiles]
+            path = c.submit(tasks.fill_grid, frame, occ, self.scratch, f"g{i}",
+                            key=f"{self.token}-grid-{i}")
+            leaks = self._wait([c.submit(tasks.leak, t, boxes, dec["halo"], orient["k"],
+                                         self.a.threads, frame, path, self.scratch,
+                                         key=f"{self.token}-leak-{i}-{t}") for t in tiles],
+                               f"flood-fill grid {i + 1}")
+            leaked, points = sum(x[0] for x in leaks), sum(x[1] for x in leaks)
+            if points and leaked / points < max_leak:
+                self.log(f"orientation: one flood-fill grid for the whole cloud, voxel "
+                         f"{h / orient['scale']:.4g}, leak {100 * leaked / points:.2f} %")
+                return frame, path.result()
+        return None, None
 
     def _signs(self, results, boxes):
         """MST: one sign per tile. Tiles agree with their neighbours over the halos (a maximum

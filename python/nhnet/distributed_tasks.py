@@ -150,24 +150,106 @@ def threshold(parts):
 
 def estimate(t, boxes, decisions, options, orient, chunk_rows, scratch):
     """Tile t with its halo through the estimator with the whole cloud's decisions, oriented per
-    point (viewpoint) or by an MST over the tile and its halo (signs reconciled between tiles
-    later); the own points' normals go to one file per input chunk, the halo's (MST) to the
-    tile's overlap file. Returns counts, warnings and the tile's terms of the outward vote."""
+    point (viewpoint, up: per point where |n_z| >= up_min_z, the rest in the tile). MST: the
+    normals of the tile and its halo are kept unoriented for orient_tile (after the whole
+    cloud's flood-fill grid is decided), and the tile's terms of that decision come back: its
+    own distinct valid points' nearest distances (saved) and their box."""
     nh = _core()
     pts, rows, owner, own = load_tile(t, boxes, decisions["halo"], scratch)
     normals, valid, cand, warnings, k_used, scales_used = nh._estimate_tile(pts, options, decisions)
+    base = {"tile": t, "own": own, "failed": int(own - valid[:own].sum()),
+            "candidates": int(cand[:own].sum()) if len(cand) else 0, "warnings": warnings,
+            "k_used": k_used, "scales_used": list(scales_used)}
+    if orient["mode"] == "mst":
+        _save(os.path.join(scratch, "raw", f"t{t}.npz"), normals=normals)
+        near = nh._mst_nearest(pts, normals, own, orient["k"], options["threads"])
+        _save(os.path.join(scratch, "near", f"t{t}.npz"), d=near)
+        ok = np.isfinite(pts[:own]).all(axis=1) & np.isfinite(normals[:own]).all(axis=1) & \
+            (np.abs(normals[:own]).sum(axis=1) > 0)
+        p = pts[:own][ok]
+        _save(os.path.join(scratch, "ownp", f"t{t}.npz"), p=p)  # for the grids' occupancy
+        base.update(near_sum=float(near.sum()), near_count=len(near),
+                    lo=p.min(axis=0) if len(p) else None, hi=p.max(axis=0) if len(p) else None)
+        return base
     if orient["mode"] == "viewpoint":
         vp = (np.asarray(orient["viewpoint"]) - orient["centre"]) * orient["scale"]
         normals = nh.orient(pts, normals, "viewpoint", viewpoint=vp,
                             threads=options["threads"]).normals
-    elif orient["mode"] == "up":  # per point where |n_z| >= up_min_z, the rest in the tile
+    elif orient["mode"] == "up":
         normals = nh.orient(pts, normals, "up", threads=options["threads"]).normals
-    elif orient["mode"] == "mst":
-        normals = nh.orient(pts, normals, "mst", k=orient["k"], threads=options["threads"]).normals
-        _save(os.path.join(scratch, "halo", f"t{t}.npz"), rows=rows[own:], owner=owner[own:],
-              normals=normals[own:].astype(np.float32))
-        _save(os.path.join(scratch, "own", f"t{t}.npz"), rows=rows[:own],
-              normals=normals[:own].astype(np.float32))
+    return _finish(t, pts, rows, own, normals, chunk_rows, scratch, base)
+
+
+def median_spacing(tiles, scratch):
+    """The median (nearest rank below, as the core's) of every tile's nearest distances."""
+    d = np.concatenate([np.load(os.path.join(scratch, "near", f"t{t}.npz"))["d"]
+                        for t in tiles] or [np.zeros(0)])
+    if not len(d):
+        return 0.0
+    k = int(0.5 * (len(d) - 1))
+    return float(np.partition(d, k)[k])
+
+
+def _own_valid(t, boxes, halo, scratch):
+    pts, rows, owner, own = load_tile(t, boxes, halo, scratch)
+    normals = np.load(os.path.join(scratch, "raw", f"t{t}.npz"))["normals"]
+    return pts, rows, owner, own, normals
+
+
+def occupy(t, frame, scratch):
+    """The voxels of the grid `frame` that tile t's own points with a valid normal occupy."""
+    p = np.load(os.path.join(scratch, "ownp", f"t{t}.npz"))["p"]
+    return np.unique(_core()._sides_grid_voxels(frame, p))
+
+
+def fill_grid(frame, occupied, scratch, name):
+    """The whole cloud's grid: every tile's occupied voxels, dilated and flood-filled (the
+    core's), saved as scratch/grid/<name>.npy; returns its path."""
+    occ = np.unique(np.concatenate(occupied)) if occupied else np.zeros(0, np.int64)
+    cell = _core()._fill_sides_grid(frame, occ.tolist())
+    path = os.path.join(scratch, "grid", f"{name}.npy")
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    tmp = f"{path}.tmp{os.getpid()}.npy"
+    np.save(tmp, cell)
+    os.replace(tmp, path)
+    return path
+
+
+def _grid(frame, path):
+    return dict(frame, cell=np.load(path)) if path else None
+
+
+def leak(t, boxes, halo, k, threads, frame, path, scratch):
+    """(leaked, points) of tile t's distinct valid own points on the grid at `path`, voting
+    with the MST's guide normals (computed once per tile, kept in the scratch folder)."""
+    cache = os.path.join(scratch, "guides", f"t{t}.npz")
+    if os.path.exists(cache):
+        g = np.load(cache)
+        pts, guides = g["p"], g["g"]
+    else:
+        p, _, _, own, normals = _own_valid(t, boxes, halo, scratch)
+        pts, guides = _core()._mst_guides(p, normals, own, k, threads)
+        _save(cache, p=pts, g=guides)
+    return _core()._sides_leaked(pts, guides, _grid(frame, path), threads), len(pts)
+
+
+def orient_tile(t, boxes, decisions, options, orient, chunk_rows, scratch, frame, path, base):
+    """MST: tile t and its halo oriented, voting on the whole cloud's grid at `path` (no flood
+    fill when None: the single process found none watertight either); the halo's normals go to
+    the tile's overlap file for the reconciliation between tiles."""
+    pts, rows, owner, own, normals = _own_valid(t, boxes, decisions["halo"], scratch)
+    normals = _core()._orient_mst_tile(pts, normals, orient["k"], options["threads"],
+                                       _grid(frame, path), path is not None)
+    _save(os.path.join(scratch, "halo", f"t{t}.npz"), rows=rows[own:], owner=owner[own:],
+          normals=normals[own:].astype(np.float32))
+    _save(os.path.join(scratch, "own", f"t{t}.npz"), rows=rows[:own],
+          normals=normals[:own].astype(np.float32))
+    return _finish(t, pts, rows, own, normals, chunk_rows, scratch, base)
+
+
+def _finish(t, pts, rows, own, normals, chunk_rows, scratch, base):
+    """The own points' normals to one file per input chunk; returns `base` with the tile's terms
+    of the outward vote."""
     n, r = normals[:own].astype(np.float32), rows[:own]
     chunk_of = np.searchsorted(chunk_rows, r, side="right") - 1
     for c in np.unique(chunk_of):
@@ -176,11 +258,8 @@ def estimate(t, boxes, decisions, options, orient, chunk_rows, scratch):
     ok = np.isfinite(normals[:own]).all(axis=1)
     p, m = pts[:own][ok], normals[:own][ok]
     top = int(np.argmax(pts[:own, 2]))
-    return {"tile": t, "own": own, "failed": int(own - valid[:own].sum()),
-            "candidates": int(cand[:own].sum()) if len(cand) else 0, "warnings": warnings,
-            "k_used": k_used, "scales_used": list(scales_used),
-            "pn": float((p * m).sum()), "n": m.sum(axis=0), "p": p.sum(axis=0), "valid": len(p),
-            "top_z": float(pts[top, 2]), "top_nz": float(normals[top, 2])}
+    return dict(base, pn=float((p * m).sum()), n=m.sum(axis=0), p=p.sum(axis=0), valid=len(p),
+                top_z=float(pts[top, 2]), top_nz=float(normals[top, 2]))
 
 
 def overlap(t, scratch):

@@ -39,6 +39,12 @@ py::array_t<typename Matrix::Scalar> to_numpy(const Matrix& m) {
   return a;
 }
 
+/// A std::vector of numbers as a new 1-D numpy array of the same type (copies).
+template <class T>
+py::array_t<T> to_numpy(const std::vector<T>& v) {
+  return py::array_t<T>(py::ssize_t(v.size()), v.data());
+}
+
 /// The core's per-point 0/1 flags (EstimateResult::valid) as a 1-D numpy bool array.
 py::array_t<bool> to_numpy_mask(const std::vector<uint8_t>& flags);
 

@@ -110,9 +110,8 @@ nhnet.UnprocessableInput (ValueError)
     Fewer than 3 finite points.
 )";
 
-}  // namespace
-
-void register_estimate(py::module_& m) {
+/// nhnet.EstimateResult: read-only views of the core's result.
+void register_result(py::module_& m) {
   py::class_<PyEstimateResult>(m, "EstimateResult",
                                "Everything nhnet.estimate() computed for one cloud.")
       .def_readonly("normals", &PyEstimateResult::normals,
@@ -155,7 +154,12 @@ void register_estimate(py::module_& m) {
                " k_used=" + std::to_string(r.core.k_used) +
                " noise_ratio=" + std::to_string(r.core.noise_ratio) + ">";
       });
+}
 
+}  // namespace
+
+void register_estimate(py::module_& m) {
+  register_result(m);
   const std::string estimate_doc =
       std::string(
           "Estimates unit normals and returns the full result (normals, valid mask, "

@@ -1,5 +1,6 @@
 // Bindings of the accuracy metrics (metrics.hpp): nhnet.metrics() and nhnet.angle_errors().
 #include "bindings.hpp"
+#include "dict_fields.hpp"
 
 #include "nhnet/errors.hpp"
 #include "nhnet/eval/metrics.hpp"
@@ -14,6 +15,12 @@ void check_sizes(const Normals& est, const Normals& gt) {
                          std::to_string(gt.rows()) + " normals");
 }
 
+/// AngleStats as the dict nhnet.metrics() returns.
+const auto kStatFields =
+    std::make_tuple(field("mean", &AngleStats::mean), field("rms", &AngleStats::rms),
+                    field("pgp5", &AngleStats::pgp5), field("pgp10", &AngleStats::pgp10),
+                    field("count", &AngleStats::count), field("invalid", &AngleStats::invalid));
+
 }  // namespace
 
 void register_metrics(py::module_& m) {
@@ -22,8 +29,7 @@ void register_metrics(py::module_& m) {
       [](const py::handle& est, const py::handle& gt) {
         const Normals e = to_points(est, "est"), g = to_points(gt, "gt");
         check_sizes(e, g);
-        const Eigen::VectorXd err = angle_errors_deg(e, g);
-        return py::array_t<double>(py::ssize_t(err.size()), err.data());
+        return to_numpy(angle_errors_deg(e, g));
       },
       "Per-point unoriented angle error in degrees, acos(min(1, |est . gt|)), between two "
       "(N, 3) normal arrays (rows need not be unit length); NaN where either normal is "
@@ -34,15 +40,7 @@ void register_metrics(py::module_& m) {
       [](const py::handle& est, const py::handle& gt) {
         const Normals e = to_points(est, "est"), g = to_points(gt, "gt");
         check_sizes(e, g);
-        const AngleStats s = angle_stats(e, g);
-        py::dict d;
-        d["mean"] = s.mean;
-        d["rms"] = s.rms;
-        d["pgp5"] = s.pgp5;
-        d["pgp10"] = s.pgp10;
-        d["count"] = s.count;
-        d["invalid"] = s.invalid;
-        return d;
+        return fields_to_dict(angle_stats(e, g), kStatFields);
       },
       "Accuracy of estimated normals against ground truth (both (N, 3), same points in the same "
       "order), as `nhnet-cli eval` reports it: {'mean', 'rms'} unoriented angle error in "

@@ -2,8 +2,11 @@
 // (leading underscore) that take and return numpy arrays, plain numbers and dicts, so that Dask
 // can ship their inputs and results between processes.
 #include "bindings.hpp"
+#include "dict_fields.hpp"
 
 #include "nhnet/errors.hpp"
+#include "nhnet/orient/orient.hpp"
+#include "nhnet/orient/sides_grid.hpp"
 #include "nhnet/pipeline/estimate.hpp"
 #include "nhnet/pipeline/tiles.hpp"
 
@@ -25,11 +28,11 @@ Eigen::RowVector3d row3(const py::handle& a, const char* what) {
 
 py::dict plan_to_dict(const TilePlan& p) {
   py::dict d;
-  d["axis"] = py::array_t<int>(py::ssize_t(p.axis.size()), p.axis.data());
-  d["value"] = py::array_t<double>(py::ssize_t(p.value.size()), p.value.data());
-  d["left"] = py::array_t<int>(py::ssize_t(p.left.size()), p.left.data());
-  d["right"] = py::array_t<int>(py::ssize_t(p.right.size()), p.right.data());
-  d["leaf"] = py::array_t<int>(py::ssize_t(p.leaf.size()), p.leaf.data());
+  d["axis"] = to_numpy(p.axis);
+  d["value"] = to_numpy(p.value);
+  d["left"] = to_numpy(p.left);
+  d["right"] = to_numpy(p.right);
+  d["leaf"] = to_numpy(p.leaf);
   d["cell_lo"] = to_numpy(p.cell_lo);
   d["cell_hi"] = to_numpy(p.cell_hi);
   return d;
@@ -45,33 +48,52 @@ TilePlan plan_from_dict(const py::dict& d) {
   return p;
 }
 
-py::dict decisions_to_dict(const TileDecisions& t) {
+py::dict grid_to_dict(const SidesGrid& g) {
   py::dict d;
-  d["noise_ratio"] = t.noise_ratio;
-  d["spacing"] = t.spacing;
-  d["far_radius"] = t.far_radius;
-  d["far_k"] = t.far_k;
-  d["k_smooth"] = t.k_smooth;
-  d["scales"] = t.scales;
-  d["halo"] = t.halo;
-  d["variation_halo"] = t.variation_halo;
-  d["variation_threshold"] = t.variation_threshold;
+  d["origin"] = to_numpy(Points(g.origin));
+  d["h"] = g.h;
+  d["dilation"] = g.dilation;
+  d["dims"] = std::vector<int64_t>(g.dims.begin(), g.dims.end());
   return d;
 }
 
-TileDecisions decisions_from_dict(const py::dict& d) {
-  TileDecisions t;
-  t.noise_ratio = d["noise_ratio"].cast<double>();
-  t.spacing = d["spacing"].cast<double>();
-  t.far_radius = d["far_radius"].cast<double>();
-  t.far_k = d["far_k"].cast<int>();
-  t.k_smooth = d["k_smooth"].cast<int>();
-  t.scales = d["scales"].cast<std::vector<int>>();
-  t.halo = d["halo"].cast<double>();
-  t.variation_halo = d["variation_halo"].cast<double>();
-  t.variation_threshold = d["variation_threshold"].cast<double>();
-  return t;
+/// A SidesGrid from grid_to_dict's fields, with d["cell"] (uint8 array) when `cells`.
+SidesGrid grid_from_dict(const py::dict& d, bool cells) {
+  SidesGrid g;
+  g.origin = row3(d["origin"], "grid origin");
+  g.h = d["h"].cast<double>();
+  g.dilation = d["dilation"].cast<int>();
+  const auto dims = d["dims"].cast<std::vector<int64_t>>();
+  if (dims.size() != 3) throw InvalidOptions("sides grid: dims must be 3 numbers");
+  std::copy(dims.begin(), dims.end(), g.dims.begin());
+  if (cells) {
+    const auto c =
+        py::array_t<uint8_t, py::array::c_style | py::array::forcecast>::ensure(d["cell"]);
+    if (!c) throw InvalidOptions("sides grid: cell must be a uint8 array");
+    g.cell.assign(c.data(), c.data() + c.size());
+  }
+  return g;
 }
+
+/// The MST options of a tile: k neighbours, threads, the whole cloud's grid when given.
+OrientOptions mst_options(int k, int threads, const py::object& grid, bool inside_outside) {
+  OrientOptions o;
+  o.mode = OrientMode::Mst;
+  o.k = k;
+  o.run.threads = threads;
+  o.inside_outside = inside_outside;
+  if (!grid.is_none())
+    o.sides = std::make_shared<const SidesGrid>(grid_from_dict(grid.cast<py::dict>(), true));
+  return o;
+}
+
+/// TileDecisions as the dict nhnet.distributed ships between processes (both directions).
+const auto kDecisionFields = std::make_tuple(
+    field("noise_ratio", &TileDecisions::noise_ratio), field("spacing", &TileDecisions::spacing),
+    field("far_radius", &TileDecisions::far_radius), field("far_k", &TileDecisions::far_k),
+    field("k_smooth", &TileDecisions::k_smooth), field("scales", &TileDecisions::scales),
+    field("halo", &TileDecisions::halo), field("variation_halo", &TileDecisions::variation_halo),
+    field("variation_threshold", &TileDecisions::variation_threshold));
 
 /// The estimator's options from the job's (a dict: method, k, scales, seed, threads, halo, model,
 /// device).
@@ -92,21 +114,20 @@ py::dict decide(const std::vector<std::tuple<DistanceMatrix, Eigen::VectorXd>>& 
                 const py::dict& options, int64_t finite) {
   std::vector<TileProbeRows> r;
   for (const auto& [d2, residual] : rows) r.push_back({d2, residual});
-  return decisions_to_dict(decide_tiles(r, options_from_dict(options), finite));
+  return fields_to_dict(decide_tiles(r, options_from_dict(options), finite), kDecisionFields);
 }
 
 py::tuple estimate(const py::handle& points, const py::dict& options, const py::dict& decisions) {
   const Points pts = to_points(points, "points");
   const EstimateOptions o = options_from_dict(options);
-  const TileDecisions d = decisions_from_dict(decisions);
+  const auto d = fields_from_dict<TileDecisions>(decisions, kDecisionFields);
   EstimateResult r;
   {
     py::gil_scoped_release release;
     r = estimate_tile(pts, o, d);
   }
-  py::array_t<uint8_t> candidate(py::ssize_t(r.candidate.size()), r.candidate.data());
-  return py::make_tuple(to_numpy(r.normals), to_numpy_mask(r.valid), candidate, r.warnings,
-                        r.k_used, r.scales_used);
+  return py::make_tuple(to_numpy(r.normals), to_numpy_mask(r.valid), to_numpy(r.candidate),
+                        r.warnings, r.k_used, r.scales_used);
 }
 
 }  // namespace
@@ -130,8 +151,7 @@ void register_tiles(py::module_& m) {
       "_route_tiles",
       [](const py::dict& plan, const py::handle& points) {
         const Points p = to_points(points, "points");
-        const std::vector<int32_t> t = route_tiles(plan_from_dict(plan), p);
-        return py::array_t<int32_t>(py::ssize_t(t.size()), t.data());
+        return to_numpy(route_tiles(plan_from_dict(plan), p));
       },
       "The tile of each point (frame units) under a plan from _plan_tiles.");
   m.def(
@@ -176,6 +196,94 @@ void register_tiles(py::module_& m) {
   m.def(
       "_variation_threshold", [](const Eigen::VectorXd& v) { return variation_threshold(v); },
       "MFPS's candidate threshold from surface variations.");
+  m.def(
+      "_mst_nearest",
+      [](const py::handle& points, const py::handle& normals, int64_t own, int k, int threads) {
+        const Points p = to_points(points, "points");
+        const Normals n = to_points(normals, "normals");
+        std::vector<double> d;
+        {
+          py::gil_scoped_release release;
+          d = mst_nearest(p, n, own, mst_options(k, threads, py::none(), true));
+        }
+        return py::array_t<double>(py::ssize_t(d.size()), d.data());
+      },
+      "Nearest-point distances of a tile's distinct valid own points in the MST graph "
+      "(orient.hpp mst_nearest).");
+  m.def(
+      "_sides_grid_plan",
+      [](const py::handle& lo, const py::handle& hi, double spacing, double typical) {
+        const SidesGridPlan p = sides_grid_plan(row3(lo, "lo"), row3(hi, "hi"), spacing, typical);
+        return py::make_tuple(p.h, p.dilation, p.max_leak);
+      },
+      "(voxel sizes, dilations, max_leak) of the flood-fill grids the MST tries for a cloud "
+      "(sides_grid.hpp).");
+  m.def(
+      "_sides_grid_frame",
+      [](const py::handle& lo, const py::handle& hi, double h, int dilation) {
+        SidesGrid g = sides_grid_frame(row3(lo, "lo"), row3(hi, "hi"), h, dilation);
+        return grid_to_dict(g);
+      },
+      "The flood-fill grid's frame (dict: origin, h, dilation, dims) over a box (sides_grid.hpp).");
+  m.def(
+      "_sides_grid_voxels",
+      [](const py::dict& grid, const py::handle& points) {
+        const std::vector<int64_t> v =
+            sides_grid_voxels(grid_from_dict(grid, false), to_points(points, "points"));
+        return py::array_t<int64_t>(py::ssize_t(v.size()), v.data());
+      },
+      "The voxel index of each point in a grid frame from _sides_grid_frame.");
+  m.def(
+      "_fill_sides_grid",
+      [](const py::dict& grid, const std::vector<int64_t>& occupied) {
+        SidesGrid g = grid_from_dict(grid, false);
+        g.cell.assign(size_t(g.dims[0] * g.dims[1] * g.dims[2]), 0);
+        {
+          py::gil_scoped_release release;
+          fill_sides_grid(g, occupied);
+        }
+        return py::array_t<uint8_t>(py::ssize_t(g.cell.size()), g.cell.data());
+      },
+      "The cells (uint8, 2 = outside) of a grid frame with the occupied voxels, dilated and "
+      "flood-filled.");
+  m.def(
+      "_mst_guides",
+      [](const py::handle& points, const py::handle& normals, int64_t own, int k, int threads) {
+        const Points p = to_points(points, "points");
+        const Normals n = to_points(normals, "normals");
+        MstGuides g;
+        {
+          py::gil_scoped_release release;
+          g = mst_guides(p, n, own, mst_options(k, threads, py::none(), true));
+        }
+        return py::make_tuple(to_numpy(g.points), to_numpy(g.guides));
+      },
+      "(points, guides) of a tile's distinct valid own points (orient.hpp mst_guides).");
+  m.def(
+      "_sides_leaked",
+      [](const py::handle& points, const py::handle& guides, const py::dict& grid, int threads) {
+        const Points p = to_points(points, "points");
+        const Normals g = to_points(guides, "guides");
+        const SidesGrid grid_cells = grid_from_dict(grid, true);
+        py::gil_scoped_release release;
+        return sides_leaked(p, g, grid_cells, threads);
+      },
+      "How many points leak on a grid with cells (orient.hpp sides_leaked).");
+  m.def(
+      "_orient_mst_tile",
+      [](const py::handle& points, const py::handle& normals, int k, int threads,
+         const py::object& grid, bool inside_outside) {
+        const Points p = to_points(points, "points");
+        Normals n = to_points(normals, "normals");
+        const OrientOptions o = mst_options(k, threads, grid, inside_outside);
+        {
+          py::gil_scoped_release release;
+          orient_normals(p, n, o);
+        }
+        return to_numpy(n);
+      },
+      "A tile's normals oriented by the MST, voting on the whole cloud's grid (dict with cell) "
+      "when given, with no flood fill when inside_outside is False.");
   m.def("_estimate_tile", &estimate,
         "One tile (own points then halo, frame units) with the whole cloud's decisions: "
         "(normals, valid, candidate, warnings, k_used, scales_used).");

@@ -333,6 +333,21 @@ case_row15b_sensor_pose_not_a_rotation() {
   cam+='property float x_axisx\nproperty float x_axisy\nproperty float x_axisz\n'
   printf "ply\nformat ascii 1.0\nelement vertex 3\n${PLY_XYZ}${cam}end_header\n0 0 1\n1 0 1\n0 1 1\n1 2 3 0 0 0\n" >axes.ply
   refused 3 axes.ply "PLY camera" "not a rotation"
+  # A sensor position that is not finite; a camera row cut short (ascii, binary) or missing.
+  printf "${head}VIEWPOINT inf 0 0 1 0 0 0\n${pts}" >tinf.pcd
+  refused 3 tinf.pcd "PCD VIEWPOINT" "sensor position is not finite"
+  cam='element camera 1\nproperty float view_px\nproperty float view_py\nproperty float view_pz\n'
+  local ply="ply\nformat ascii 1.0\nelement vertex 3\n${PLY_XYZ}${cam}end_header\n0 0 1\n1 0 1\n0 1 1\n"
+  printf "${ply}nan 0 0\n" >campos.ply
+  printf "${ply}1 2\n" >camshort.ply
+  printf "${ply}" >camgone.ply
+  refused 3 campos.ply "PLY camera" "sensor position is not finite"
+  refused 3 camshort.ply "too few values in camera 0 of 1" "line 15"
+  refused 3 camgone.ply "expected 1 cameras, file ends after 0"
+  { printf "ply\nformat binary_little_endian 1.0\nelement vertex 3\n${PLY_XYZ}${cam}end_header\n"
+    $PY -c "import struct,sys; sys.stdout.buffer.write(struct.pack('<10f', 0,0,1, 1,0,1, 0,1,1, 1))"
+  } >cambin.ply
+  refused 3 cambin.ply "element 'camera' declares 1 cameras" "unexpected end of file"
 }
 
 case_row16_xyz_ragged_header_blank() {
@@ -744,6 +759,13 @@ e.write_scan_raw({"cartesianX": p[:, 0].copy(), "cartesianY": p[:, 1].copy(), "c
 e.close()
 e57 = open("pose.e57", "rb").read()
 open("trunc.e57", "wb").write(e57[:len(e57) // 2])
+for name, at, value in [("ver", 25, bytes([9])), ("scale", 131, struct.pack("<d", 0.0)),
+                        ("novlr", 104, bytes([b[104] | 0x80])), ("reclen", 105, struct.pack("<H", 20)),
+                        ("offset", 96, struct.pack("<I", len(b) + 10))]:
+    broken = bytearray(b); broken[at:at + len(value)] = value
+    open(name + ".las", "wb").write(bytes(broken))
+open("magic.e57", "wb").write(b"ASTM-E57" + bytes(2040))
+open("notmagic.e57", "wb").write(b"not an e57 file\n" * 40)
 EOF2
   refused 3 trunc.las "header declares 200 points" "truncated?"
   refused 3 head.las "truncated LAS header"
@@ -752,6 +774,13 @@ EOF2
   refused 3 trunc.laz "LAZ"
   refused 3 trunc.e57 "E57"
   refused 3 pose.e57 "scan 'tilted'" "not a rotation"
+  refused 3 ver.las "unsupported LAS version 1.9"
+  refused 3 scale.las "bad scale or offset of coordinate X"
+  refused 3 novlr.las "compressed points (LAZ) without a laszip VLR"
+  refused 3 reclen.las "point record length 20 is shorter than point format 3 needs (34)"
+  refused 3 offset.las "offset to point data" "lies outside the file"
+  refused 3 magic.e57 "E57: "
+  refused 3 notmagic.e57 "not an E57 file (bad magic"
   # LAZ sizes the laz crate would allocate before reading (fuzz/regressions/las): refused first.
   cp "$NHNET_SOURCE_DIR/fuzz/regressions/las/laz_layer_size_4gib.laz" layer.laz
   cp "$NHNET_SOURCE_DIR/fuzz/regressions/las/laz_chunk_count_4g.laz" chunks.laz

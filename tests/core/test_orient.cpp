@@ -7,13 +7,16 @@
 #include "nhnet/errors.hpp"
 #include "nhnet/io/io.hpp"
 #include "nhnet/orient/orient.hpp"
+#include "nhnet/orient/sides_grid.hpp"
 #include "nhnet/pipeline/estimate.hpp"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <memory>
 #include <random>
 #include <string>
 
@@ -281,4 +284,76 @@ TEST(Orient, MstDuplicatesSameAsDeduplicated) {
   for (int c = 0; c < 10; ++c)
     for (Eigen::Index i = 0; i < n; ++i)
       ASSERT_EQ(many.row(c * n + i), once.row(i)) << "copy " << c << " of point " << i;
+}
+
+namespace {
+
+/// The whole cloud's flood-fill grid built from the public pieces as a distributed driver does
+/// (sides_grid.hpp): plan from the MST graph's spacing, first candidate under the leak limit.
+std::shared_ptr<const SidesGrid> whole_cloud_grid(const Points& pts, const Normals& n) {
+  const OrientOptions o;
+  const std::vector<double> near = mst_nearest(pts, n, pts.rows(), o);
+  double mean = 0;
+  for (const double d : near) mean += d;
+  mean /= double(near.size());
+  std::vector<double> sorted = near;
+  std::nth_element(sorted.begin(), sorted.begin() + long((sorted.size() - 1) / 2), sorted.end());
+  const double median = sorted[(sorted.size() - 1) / 2];
+  const Eigen::RowVector3d lo = pts.colwise().minCoeff(), hi = pts.colwise().maxCoeff();
+  const SidesGridPlan plan = sides_grid_plan(lo, hi, mean, median);
+  const MstGuides g = mst_guides(pts, n, pts.rows(), o);
+  for (size_t c = 0; c < plan.h.size(); ++c) {
+    auto grid = std::make_shared<SidesGrid>(sides_grid_frame(lo, hi, plan.h[c], plan.dilation[c]));
+    fill_sides_grid(*grid, sides_grid_voxels(*grid, pts));
+    if (double(sides_leaked(g.points, g.guides, *grid, 0)) < plan.max_leak * double(pts.rows()))
+      return grid;
+  }
+  return nullptr;
+}
+
+}  // namespace
+
+TEST(Orient, SharedFloodFillGridGivesEachTileTheWholeCloudsSigns) {
+  // Issue 25: a tile (half the cube plus a halo) is open, so its own flood fill leaks and its
+  // tree alone decides; voting on the whole cloud's grid (options.sides), each half gets the
+  // signs of the whole cloud's MST, point for point. The grid built from the public pieces must
+  // also be the one the MST builds itself: same voxel, same normals.
+  const auto f = fixtures::cube(20000, 0.002, 41);
+  EstimateOptions eo;
+  eo.method = Method::Pca;
+  eo.k = 20;
+  const Normals raw = estimate_normals(f.points, eo).normals;
+  Normals whole = raw;
+  const OrientResult rw = orient_normals(f.points, whole, OrientOptions{});
+  const auto grid = whole_cloud_grid(f.points, raw);
+  ASSERT_TRUE(grid);
+  EXPECT_EQ(grid->h, rw.voxel);
+  OrientOptions shared;
+  shared.sides = grid;
+  Normals again = raw;
+  orient_normals(f.points, again, shared);
+  EXPECT_EQ(again, whole);
+  const double mid = (f.points.col(0).minCoeff() + f.points.col(0).maxCoeff()) / 2;
+  for (const int side : {0, 1}) {
+    std::vector<Eigen::Index> own, halo;  // the half, then the other half within 0.1
+    for (Eigen::Index i = 0; i < f.points.rows(); ++i) {
+      const double x = f.points(i, 0);
+      if ((x < mid) == (side == 0))
+        own.push_back(i);
+      else if (std::abs(x - mid) < 0.1)
+        halo.push_back(i);
+    }
+    own.insert(own.end(), halo.begin(), halo.end());
+    Points p(Eigen::Index(own.size()), 3);
+    Normals n(Eigen::Index(own.size()), 3);
+    for (size_t i = 0; i < own.size(); ++i) {
+      p.row(Eigen::Index(i)) = f.points.row(own[i]);
+      n.row(Eigen::Index(i)) = raw.row(own[i]);
+    }
+    orient_normals(p, n, shared);
+    int64_t differ = 0;
+    for (size_t i = 0; i < own.size() - halo.size(); ++i)
+      differ += n.row(Eigen::Index(i)).dot(whole.row(own[i])) < 0;
+    EXPECT_EQ(differ, 0) << "half " << side;
+  }
 }

@@ -143,12 +143,32 @@ def test_same_normals_as_one_process(cluster, tmp_path, method, suffix):
     share, flipped, valid = compare(ref.normals, got.normals)
     assert valid > 49_000
     assert share >= 0.999, (share, r.stderr)
-    # Signs: the tiles' MSTs reconciled over the halos agree with the whole cloud's MST except
-    # where the in-process MST's voxel flood fill (which needs the whole closed surface, not an
-    # open tile) overrules its tree: a few points on the box's edges (5 of 50 000 measured for
-    # both methods, all wrong in the distributed output). Allowed: 0.04 %; a tile with an arbitrary sign
-    # would flip about 10 000.
-    assert flipped <= 20, flipped
+    # Signs: the box is closed, so one process's MST takes each point's side from a voxel flood
+    # fill of the whole cloud; every tile votes on that same grid (decided once, from all the
+    # tiles' voxels: "one flood-fill grid"), so no sign may differ. Before the grid was shared,
+    # each open tile's fill leaked and its tree alone decided: 5 of 50 000 points on one edge
+    # came out inward, for both methods.
+    assert "one flood-fill grid for the whole cloud" in r.stderr, r.stderr
+    assert flipped == 0, flipped
+
+
+def test_open_surface_signs(cluster, tmp_path):
+    """An open, wavy sheet (no watertight grid: one process's MST has no flood fill, and no tile
+    may flood its own): the tiles' trees reconciled over the halos give every point the sign of
+    one nhnet-cli process."""
+    rng = np.random.default_rng(5)
+    xy = rng.random((20_000, 2)) * [1.0, 0.8]
+    z = 0.08 * np.sin(6 * xy[:, 0]) * np.cos(5 * xy[:, 1]) + rng.normal(0, 0.002, len(xy))
+    inp, out, ref_out = tmp_path / "sheet.ply", tmp_path / "o.ply", tmp_path / "r.ply"
+    write_ply(inp, np.c_[xy, z])
+    subprocess.run([str(CLI), "estimate", str(inp), str(ref_out), "--method", "pca",
+                    "--threads", "1"], check=True, capture_output=True, env=ENV)
+    r = subprocess.run(distributed_cmd(cluster, inp, out, "--method", "pca", "--tile-points",
+                                       "5000"), capture_output=True, text=True, env=ENV)
+    assert r.returncode == 0, r.stderr
+    assert "4 tiles" in r.stderr and "flood-fill grid for the whole" not in r.stderr, r.stderr
+    share, flipped, valid = compare(nhnet.read(str(ref_out)).normals, nhnet.read(str(out)).normals)
+    assert valid == 20_000 and share >= 0.999 and flipped == 0, (share, flipped)
 
 
 def test_viewpoint_orientation(cluster, tmp_path):

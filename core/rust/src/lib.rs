@@ -266,9 +266,10 @@ pub struct E57File {
     scans: Vec<Scan>,
 }
 
-/// View of one scan for C: arrays are null when the scan lacks them.
+/// What a scan read and a scan to write have in common (name, pose, coordinates and normals in
+/// the scan's own frame); arrays are null when absent. Layout pinned in formats_ffi.hpp.
 #[repr(C)]
-pub struct NhE57ScanView {
+pub struct NhE57ScanHead {
     pub name: *const u8,
     pub name_len: usize,
     pub has_pose: i32,
@@ -277,8 +278,14 @@ pub struct NhE57ScanView {
     pub n: usize,
     pub xyz: *const f64,
     pub intensity: *const f32,
-    pub rgb: *const f32,
     pub normals: *const f32,
+}
+
+/// View of one scan for C.
+#[repr(C)]
+pub struct NhE57ScanView {
+    pub head: NhE57ScanHead,
+    pub rgb: *const f32,
     pub color_max: f64,
     pub dropped: u64,
 }
@@ -426,16 +433,18 @@ pub unsafe extern "C" fn nhnet_e57_scan(file: *const E57File, index: usize, view
         None => (0, [1.0, 0.0, 0.0, 0.0], [0.0; 3]),
     };
     *view = NhE57ScanView {
-        name: s.name.as_ptr(),
-        name_len: s.name.len(),
-        has_pose,
-        quat,
-        trans,
-        n: s.xyz.len() / 3,
-        xyz: s.xyz.as_ptr(),
-        intensity: ptr_or_null(&s.intensity),
+        head: NhE57ScanHead {
+            name: s.name.as_ptr(),
+            name_len: s.name.len(),
+            has_pose,
+            quat,
+            trans,
+            n: s.xyz.len() / 3,
+            xyz: s.xyz.as_ptr(),
+            intensity: ptr_or_null(&s.intensity),
+            normals: ptr_or_null(&s.normals),
+        },
         rgb: ptr_or_null(&s.rgb),
-        normals: ptr_or_null(&s.normals),
         color_max: s.color_max,
         dropped: s.dropped,
     };
@@ -455,20 +464,12 @@ pub unsafe extern "C" fn nhnet_e57_free(file: *mut E57File) {
 // ---------------------------------------------------------------------------------------------
 // E57 writing
 
-/// One scan to write: coordinates and normals in the scan's own frame; arrays may be null.
+/// One scan to write.
 #[repr(C)]
 pub struct NhE57ScanIn {
-    pub name: *const u8,
-    pub name_len: usize,
-    pub has_pose: i32,
-    pub quat: [f64; 4], // w x y z
-    pub trans: [f64; 3],
-    pub n: usize,
-    pub xyz: *const f64,
-    pub intensity: *const f32,
+    pub head: NhE57ScanHead,
     pub rgb: *const u16,
     pub rgb_max: i64,
-    pub normals: *const f32,
 }
 
 const NOR_NAMESPACE: &str = "nor";
@@ -482,7 +483,7 @@ fn prototype(s: &NhE57ScanIn) -> Vec<Record> {
         Record { name: RecordName::CartesianY, data_type: double() },
         Record { name: RecordName::CartesianZ, data_type: double() },
     ];
-    if !s.intensity.is_null() {
+    if !s.head.intensity.is_null() {
         p.push(Record { name: RecordName::Intensity, data_type: single() });
     }
     if !s.rgb.is_null() {
@@ -490,7 +491,7 @@ fn prototype(s: &NhE57ScanIn) -> Vec<Record> {
             p.push(Record { name, data_type: RecordDataType::Integer { min: 0, max: s.rgb_max } });
         }
     }
-    if !s.normals.is_null() {
+    if !s.head.normals.is_null() {
         for tag in ["normalX", "normalY", "normalZ"] {
             let name = RecordName::Unknown {
                 namespace: NOR_NAMESPACE.to_string(),
@@ -509,19 +510,20 @@ unsafe fn write_scan<T: std::io::Read + std::io::Write + std::io::Seek>(
 ) -> Result<(), String> {
     let guid = format!("{{nhnet-scan-{index}}}");
     let mut pc = writer.add_pointcloud(&guid, prototype(s)).map_err(|e| e.to_string())?;
-    let name = String::from_utf8_lossy(slice(s.name, s.name_len)).into_owned();
+    let h = &s.head;
+    let name = String::from_utf8_lossy(slice(h.name, h.name_len)).into_owned();
     pc.set_name(Some(name));
-    if s.has_pose != 0 {
+    if h.has_pose != 0 {
         pc.set_transform(Some(Transform {
-            rotation: Quaternion { w: s.quat[0], x: s.quat[1], y: s.quat[2], z: s.quat[3] },
-            translation: Translation { x: s.trans[0], y: s.trans[1], z: s.trans[2] },
+            rotation: Quaternion { w: h.quat[0], x: h.quat[1], y: h.quat[2], z: h.quat[3] },
+            translation: Translation { x: h.trans[0], y: h.trans[1], z: h.trans[2] },
         }));
     }
-    let xyz = slice(s.xyz, s.n * 3);
-    let intensity = slice(s.intensity, s.n);
-    let rgb = slice(s.rgb, s.n * 3);
-    let normals = slice(s.normals, s.n * 3);
-    for i in 0..s.n {
+    let xyz = slice(h.xyz, h.n * 3);
+    let intensity = slice(h.intensity, h.n);
+    let rgb = slice(s.rgb, h.n * 3);
+    let normals = slice(h.normals, h.n * 3);
+    for i in 0..h.n {
         let mut v: Vec<RecordValue> = xyz[3 * i..3 * i + 3].iter().map(|c| RecordValue::Double(*c)).collect();
         if !intensity.is_empty() {
             v.push(RecordValue::Single(intensity[i]));
@@ -555,7 +557,7 @@ pub unsafe extern "C" fn nhnet_e57_write(
         {
             let mut writer =
                 E57Writer::new(&mut cursor, "{nhnet-e57-file}").map_err(|e| e.to_string())?;
-            if scans.iter().any(|s| !s.normals.is_null()) {
+            if scans.iter().any(|s| !s.head.normals.is_null()) {
                 writer
                     .register_extension(Extension::new(NOR_NAMESPACE, NOR_URL))
                     .map_err(|e| e.to_string())?;
@@ -568,4 +570,58 @@ pub unsafe extern "C" fn nhnet_e57_write(
         *out = into_buf(cursor.into_inner());
         Ok(())
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::mem::{offset_of, size_of};
+
+    /// (struct, field or "" for its size, Rust's figure) for every struct of the C ABI.
+    macro_rules! layout {
+        ($($t:ident { $($f:ident),* }),*) => {
+            vec![$((stringify!($t), "", size_of::<$t>()),
+                   $((stringify!($t), stringify!($f), offset_of!($t, $f)),)*)*]
+        };
+    }
+
+    /// The `sizeof(S) == N` and `offsetof(S, f) == N` figures of the header's static_asserts.
+    fn asserted(header: &str) -> Vec<(String, String, usize)> {
+        let mut out = Vec::new();
+        for (key, sized) in [("sizeof(", true), ("offsetof(", false)] {
+            for (at, _) in header.match_indices(key) {
+                let rest = &header[at + key.len()..];
+                let close = rest.find(')').expect("closing parenthesis");
+                let mut names = rest[..close].split(',').map(str::trim);
+                let s = names.next().unwrap().to_string();
+                let f = if sized { String::new() } else { names.next().unwrap().to_string() };
+                let value = rest[close + 1..].trim_start().strip_prefix("==").expect("== N");
+                let digits: String =
+                    value.trim_start().chars().take_while(char::is_ascii_digit).collect();
+                out.push((s, f, digits.parse().expect("a number")));
+            }
+        }
+        out
+    }
+
+    /// The structs' layout is what core/src/io/formats_ffi.hpp pins with static_assert.
+    #[test]
+    fn c_layout_matches_formats_ffi_hpp() {
+        let rust = layout!(
+            NhBuf { len, cap },
+            NhE57ScanHead { name_len, has_pose, quat, trans, n, xyz, intensity, normals },
+            NhE57ScanView { rgb, color_max, dropped },
+            NhE57ScanIn { rgb, rgb_max }
+        );
+        let header = asserted(include_str!("../../src/io/formats_ffi.hpp"));
+        for (s, f, want) in &header {
+            let got = rust.iter().find(|(rs, rf, _)| rs == s && rf == f);
+            let got = got.unwrap_or_else(|| panic!("the header pins {s}.{f}; add it here")).2;
+            assert_eq!(got, *want, "{s}.{f}: Rust {got}, formats_ffi.hpp {want}");
+        }
+        for (s, f, _) in &rust {
+            let pinned = header.iter().any(|(hs, hf, _)| hs == s && hf == f);
+            assert!(pinned, "{s}.{f} not pinned in formats_ffi.hpp");
+        }
+    }
 }

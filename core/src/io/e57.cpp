@@ -28,7 +28,7 @@ struct E57Closer {
 };
 
 /// The rotation of a scan's pose; InputError naming the scan when it is not one.
-Eigen::Matrix3d pose_rotation(const FileBytes& file, const NhE57ScanView& s,
+Eigen::Matrix3d pose_rotation(const FileBytes& file, const NhE57ScanHead& s,
                               const std::string& name) {
   const Eigen::Quaterniond q(s.quat[0], s.quat[1], s.quat[2], s.quat[3]);
   const double norm = q.norm();
@@ -48,9 +48,10 @@ ExtraProperty& extra(Cloud& cloud, const std::string& name, ScalarType type, siz
   return cloud.extras.back();
 }
 
-/// Appends scan `s` (already validated) to `cloud` at rows [first, first + s.n).
-void add_scan(Cloud& cloud, const NhE57ScanView& s, const Eigen::Matrix3d& r,
+/// Appends scan `v` (already validated) to `cloud` at rows [first, first + v.head.n).
+void add_scan(Cloud& cloud, const NhE57ScanView& v, const Eigen::Matrix3d& r,
               const Eigen::Vector3d& t, Eigen::Index first, bool normals) {
+  const NhE57ScanHead& s = v.head;
   const size_t total = size_t(cloud.points.rows());
   for (size_t i = 0; i < s.n; ++i) {
     const Eigen::Index row = first + Eigen::Index(i);
@@ -62,13 +63,13 @@ void add_scan(Cloud& cloud, const NhE57ScanView& s, const Eigen::Matrix3d& r,
     }
     if (s.intensity)
       extra(cloud, "intensity", ScalarType::Float32, total).values[size_t(row)] = s.intensity[i];
-    if (s.rgb) {
-      const ScalarType type = s.color_max <= 255     ? ScalarType::UInt8
-                              : s.color_max <= 65535 ? ScalarType::UInt16
+    if (v.rgb) {
+      const ScalarType type = v.color_max <= 255     ? ScalarType::UInt8
+                              : v.color_max <= 65535 ? ScalarType::UInt16
                                                      : ScalarType::Float32;
       const char* names[] = {"red", "green", "blue"};
       for (int k = 0; k < 3; ++k)
-        extra(cloud, names[k], type, total).values[size_t(row)] = s.rgb[3 * i + size_t(k)];
+        extra(cloud, names[k], type, total).values[size_t(row)] = v.rgb[3 * i + size_t(k)];
     }
   }
 }
@@ -90,8 +91,8 @@ Cloud read_e57(const FileBytes& file, std::vector<std::string>* warnings) {
   uint64_t dropped = 0;
   for (size_t k = 0; k < scans; ++k) {
     nhnet_e57_scan(raw, k, &views[k]);
-    total += views[k].n;
-    normals = normals && views[k].normals;
+    total += views[k].head.n;
+    normals = normals && views[k].head.normals;
     dropped += views[k].dropped;
   }
   Cloud cloud;
@@ -100,13 +101,13 @@ Cloud read_e57(const FileBytes& file, std::vector<std::string>* warnings) {
   cloud.sensor_index.reserve(total);
   Eigen::Index first = 0;
   for (size_t k = 0; k < scans; ++k) {
-    const NhE57ScanView& s = views[k];
+    const NhE57ScanHead& s = views[k].head;
     const std::string name(reinterpret_cast<const char*>(s.name), s.name_len);
     Sensor sensor;
     sensor.rotation = pose_rotation(file, s, name);
     sensor.position = Eigen::Vector3d(s.trans[0], s.trans[1], s.trans[2]);
     sensor.source = "E57 scan '" + name + "'";
-    add_scan(cloud, s, sensor.rotation, sensor.position, first, normals);
+    add_scan(cloud, views[k], sensor.rotation, sensor.position, first, normals);
     cloud.sensors.push_back(std::move(sensor));
     cloud.sensor_index.insert(cloud.sensor_index.end(), s.n, int32_t(k));
     first += Eigen::Index(s.n);
@@ -192,18 +193,19 @@ void write_e57(Sink& sink, const Cloud& cloud, const std::string& path) {
   std::vector<NhE57ScanIn> in;
   for (const ScanOut& s : scans) {
     NhE57ScanIn v{};
-    v.name = reinterpret_cast<const uint8_t*>(s.name.data());
-    v.name_len = s.name.size();
-    v.has_pose = s.pose ? 1 : 0;
+    NhE57ScanHead& h = v.head;
+    h.name = reinterpret_cast<const uint8_t*>(s.name.data());
+    h.name_len = s.name.size();
+    h.has_pose = s.pose ? 1 : 0;
     const double quat[4] = {s.q.w(), s.q.x(), s.q.y(), s.q.z()};
-    std::copy(quat, quat + 4, v.quat);
-    std::copy(s.t.data(), s.t.data() + 3, v.trans);
-    v.n = s.xyz.size() / 3;
-    v.xyz = s.xyz.data();
-    v.intensity = s.intensity.empty() ? nullptr : s.intensity.data();
+    std::copy(quat, quat + 4, h.quat);
+    std::copy(s.t.data(), s.t.data() + 3, h.trans);
+    h.n = s.xyz.size() / 3;
+    h.xyz = s.xyz.data();
+    h.intensity = s.intensity.empty() ? nullptr : s.intensity.data();
     v.rgb = s.rgb.empty() ? nullptr : s.rgb.data();
     v.rgb_max = rgb_max;
-    v.normals = cloud.has_normals() ? s.normals.data() : nullptr;
+    h.normals = cloud.has_normals() ? s.normals.data() : nullptr;
     in.push_back(v);
   }
   RustBuf out;

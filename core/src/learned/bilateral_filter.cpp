@@ -4,11 +4,51 @@
 #include "nhnet/errors.hpp"
 #include "util/parallel.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <string>
 
 namespace nhnet {
+
+namespace {
+
+/// One point's neighbours with a finite normal, in table order (per thread, reused).
+struct Scratch {
+  Eigen::ArrayXd d2;                            // squared distances to p_i
+  Eigen::ArrayXd dn2;                           // squared normal differences 2 (1 - |n_i . n_j|)
+  Eigen::Matrix<double, Eigen::Dynamic, 3> nj;  // normals flipped to n_i's side
+  Eigen::ArrayXd ws;                            // spatial weights of one sigma_s
+  Eigen::ArrayXXd wr;                           // range weights, one column per sigma_r
+  Eigen::Index count = 0;                       // neighbours kept (rows in use)
+
+  void gather(const Points& points, const Normals& normals, const IndexMatrix& knn, int64_t i,
+              int k, const Eigen::Vector3d& pi, const Eigen::Vector3d& ni) {
+    d2.resize(k);
+    dn2.resize(k);
+    nj.resize(k, 3);
+    int m = 0;  // rows 0 .. m-1 hold the neighbours kept
+    for (int c = 0; c < k; ++c) {
+      const int32_t j = knn(i, c);
+      Eigen::Vector3d v = normals.row(j).transpose();
+      if (!v.allFinite()) continue;
+      double dot = ni.dot(v);
+      if (dot < 0) {
+        v = -v;
+        dot = -dot;
+      }
+      d2[m] = (points.row(j).transpose() - pi).squaredNorm();
+      dn2[m] = std::max(0.0, 2.0 * (1.0 - dot));
+      nj.row(m) = v.transpose();
+      ++m;
+    }
+    count = m;
+  }
+};
+
+thread_local Scratch scratch;
+
+}  // namespace
 
 FeatureNormals bilateral_filter(const Points& points, const Normals& normals,
                                 const IndexMatrix& knn, int k,
@@ -42,26 +82,25 @@ FeatureNormals bilateral_filter(const Points& points, const Normals& normals,
       spacing += (points.row(knn(i, c)).transpose() - pi).norm();
     spacing /= options.spacing_k;
     out.block<1, 3>(i, 0) = ni.transpose();
+    // Per neighbour once (not once per width pair): its normal flipped to n_i's side, the squared
+    // distance and the squared normal difference; the weights are exp(-d2 / 2s^2) exp(-dn2 / 2r^2),
+    // |sigma_s| + |sigma_r| vectorised exponentials per neighbour instead of |sigma_s| |sigma_r|.
+    Scratch& sc = scratch;
+    sc.gather(points, normals, knn, i, k, pi, ni);
+    const Eigen::Index m = sc.count;
+    sc.wr.resize(k, nr);
+    for (int b = 0; b < nr; ++b) {
+      const double r = options.sigma_r[size_t(b)];
+      sc.wr.col(b).head(m) = (sc.dn2.head(m) * (-1.0 / (2 * r * r))).exp();
+    }
     for (int a = 0; a < ns; ++a) {
       const double s = options.sigma_s[size_t(a)] * spacing;
       const double inv_s = s > 0 ? 1.0 / (2 * s * s) : 0.0;
+      sc.ws.resize(k);
+      sc.ws.head(m) = (sc.d2.head(m) * -inv_s).exp();
       for (int b = 0; b < nr; ++b) {
-        const double r = options.sigma_r[size_t(b)];
-        const double inv_r = 1.0 / (2 * r * r);
-        Eigen::Vector3d acc = Eigen::Vector3d::Zero();
-        for (int c = 0; c < k; ++c) {
-          const int32_t j = knn(i, c);
-          Eigen::Vector3d nj = normals.row(j).transpose();
-          if (!nj.allFinite()) continue;
-          double dot = ni.dot(nj);
-          if (dot < 0) {
-            nj = -nj;
-            dot = -dot;
-          }
-          const double d2 = (points.row(j).transpose() - pi).squaredNorm();
-          const double dn2 = std::max(0.0, 2.0 * (1.0 - dot));
-          acc += std::exp(-d2 * inv_s - dn2 * inv_r) * nj;
-        }
+        const Eigen::Vector3d acc =
+            sc.nj.topRows(m).transpose() * (sc.ws.head(m) * sc.wr.col(b).head(m)).matrix();
         const double len = acc.norm();
         out.block<1, 3>(i, 3 * (1 + a * nr + b)) =
             (len > 0 ? Eigen::Vector3d(acc / len) : ni).transpose();

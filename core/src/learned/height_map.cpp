@@ -13,6 +13,54 @@
 
 namespace nhnet {
 
+namespace {
+
+/// The ball-cell pairs of one height map before their weights (per thread, reused).
+struct Contributions {
+  std::vector<int> cell;       // row-major cell index
+  std::vector<double> dist2;   // squared distance to the cell centre, in cells
+  std::vector<double> height;  // the neighbour's height, in cells
+  Eigen::ArrayXd weight;       // exp(-dist2 / 2)
+
+  /// Every (neighbour, cell) pair within the ball, in neighbour order then row-major cell
+  /// order, for the map of frame (x, y, nf) with cells of size 1 / inv_h on an m x m grid; then
+  /// all their Gaussian weights in one vectorised exponential.
+  void collect(const std::vector<Eigen::Vector3d>& d, const Eigen::Vector3d& nf,
+               const Eigen::Vector3d& x, const Eigen::Vector3d& y, double inv_h, int m,
+               double ball) {
+    cell.clear();
+    dist2.clear();
+    height.clear();
+    const int half = m / 2;
+    const double ball2 = ball * ball;
+    for (const Eigen::Vector3d& v : d) {
+      const double z = v.dot(nf) * inv_h;  // height in cells
+      const double u = v.dot(x) * inv_h + half, w = v.dot(y) * inv_h + half;
+      const double z2 = z * z;
+      if (z2 > ball2) continue;
+      const int r0 = std::max(0, int(std::ceil(u - ball)));
+      const int r1 = std::min(m - 1, int(std::floor(u + ball)));
+      const int c0 = std::max(0, int(std::ceil(w - ball)));
+      const int c1 = std::min(m - 1, int(std::floor(w + ball)));
+      for (int rr = r0; rr <= r1; ++rr)
+        for (int cc = c0; cc <= c1; ++cc) {
+          const double e2 = (u - rr) * (u - rr) + (w - cc) * (w - cc) + z2;
+          if (e2 > ball2) continue;
+          cell.push_back(rr * m + cc);
+          dist2.push_back(e2);
+          height.push_back(z);
+        }
+    }
+    weight =
+        (Eigen::Map<const Eigen::ArrayXd>(dist2.data(), Eigen::Index(dist2.size())) * -0.5).exp();
+  }
+};
+
+thread_local Contributions contributions;
+thread_local std::vector<Eigen::Vector3d> offsets;
+
+}  // namespace
+
 HeightMaps height_maps(const Points& points, const IndexMatrix& knn, int k,
                        const CanonicalFrames& frames, const HeightMapOptions& options,
                        const RunContext& run, Eigen::Index first) {
@@ -39,7 +87,8 @@ HeightMaps height_maps(const Points& points, const IndexMatrix& knn, int k,
     for (int c = 0; c < 9; ++c) r(c / 3, c % 3) = frames.rotations(i, c);
     const Eigen::Vector3d pi = points.row(first + i).transpose();
     const Eigen::Vector3d e1 = r.row(0).transpose(), e2 = r.row(1).transpose();
-    std::vector<Eigen::Vector3d> d(static_cast<size_t>(k));
+    std::vector<Eigen::Vector3d>& d = offsets;
+    d.resize(static_cast<size_t>(k));
     double rad2 = 0;
     for (int c = 0; c < k; ++c) {
       d[size_t(c)] = points.row(knn(i, c)).transpose() - pi;
@@ -50,7 +99,7 @@ HeightMaps height_maps(const Points& points, const IndexMatrix& knn, int k,
       out.row(i).setZero();
       return;
     }
-    const double inv_h = 1.0 / h, ball2 = options.ball * options.ball;
+    const double inv_h = 1.0 / h;
     std::vector<double> wsum(static_cast<size_t>(mm)), zsum(static_cast<size_t>(mm));
     for (int a = 0; a < f; ++a) {
       const Eigen::Vector3d nf = r.transpose() * frames.rotated.block<1, 3>(i, 3 * a).transpose();
@@ -59,26 +108,13 @@ HeightMaps height_maps(const Points& points, const IndexMatrix& knn, int k,
       x.normalize();
       Eigen::Vector3d y = e2 - e2.dot(nf) * nf - e2.dot(x) * x;
       y = y.norm() > 1e-6 ? Eigen::Vector3d(y.normalized()) : Eigen::Vector3d(nf.cross(x));
+      Contributions& ct = contributions;
+      ct.collect(d, nf, x, y, inv_h, m, options.ball);
       std::fill(wsum.begin(), wsum.end(), 0.0);
       std::fill(zsum.begin(), zsum.end(), 0.0);
-      for (int c = 0; c < k; ++c) {
-        const Eigen::Vector3d& v = d[size_t(c)];
-        const double z = v.dot(nf) * inv_h;  // height in cells
-        const double u = v.dot(x) * inv_h + half, w = v.dot(y) * inv_h + half;
-        const double z2 = z * z;
-        if (z2 > ball2) continue;
-        const int r0 = std::max(0, int(std::ceil(u - options.ball)));
-        const int r1 = std::min(m - 1, int(std::floor(u + options.ball)));
-        const int c0 = std::max(0, int(std::ceil(w - options.ball)));
-        const int c1 = std::min(m - 1, int(std::floor(w + options.ball)));
-        for (int rr = r0; rr <= r1; ++rr)
-          for (int cc = c0; cc <= c1; ++cc) {
-            const double dist2 = (u - rr) * (u - rr) + (w - cc) * (w - cc) + z2;
-            if (dist2 > ball2) continue;
-            const double wt = std::exp(-0.5 * dist2);
-            wsum[size_t(rr * m + cc)] += wt;
-            zsum[size_t(rr * m + cc)] += wt * z;
-          }
+      for (size_t e = 0; e < ct.cell.size(); ++e) {
+        wsum[size_t(ct.cell[e])] += ct.weight[Eigen::Index(e)];
+        zsum[size_t(ct.cell[e])] += ct.weight[Eigen::Index(e)] * ct.height[e];
       }
       for (int b = 0; b < mm; ++b)
         out(i, a * mm + b) = wsum[size_t(b)] > 0 ? float(zsum[size_t(b)] / wsum[size_t(b)]) : 0.0f;

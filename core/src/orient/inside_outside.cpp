@@ -1,6 +1,7 @@
 // Inside / outside votes from a voxel flood fill (see inside_outside.hpp; not a paper stage).
 #include "orient/inside_outside.hpp"
 
+#include "nhnet/errors.hpp"
 #include "util/parallel.hpp"
 
 #include <Eigen/Geometry>
@@ -12,14 +13,11 @@
 
 namespace nhnet::detail {
 
-// Occupancy grid over the points' bounding box with `pad` empty voxels on every side.
-struct InsideOutside::Grid {
-  Eigen::RowVector3d origin;
-  double h = 1;
-  int dilation = 2;  // steps the occupied voxels were dilated by
-  std::array<int64_t, 3> dims{};
-  std::vector<uint8_t> cell;  // 0 empty, 1 occupied, 2 outside (flood-filled empty)
-
+// Occupancy grid over the points' bounding box with `pad` empty voxels on every side (the
+// public SidesGrid, sides_grid.hpp, with its lookups).
+struct InsideOutside::Grid : SidesGrid {
+  Grid() = default;
+  explicit Grid(SidesGrid g) : SidesGrid(std::move(g)) {}
   int64_t index(int64_t x, int64_t y, int64_t z) const { return (x * dims[1] + y) * dims[2] + z; }
   // Voxel of a position, clamped into the grid (the border voxels are outside).
   int64_t locate(const Eigen::RowVector3d& p) const {
@@ -93,39 +91,28 @@ int8_t grid_vote(const Grid& g, const Eigen::RowVector3d& p, const Eigen::RowVec
   return int8_t(sum > 0 ? 1 : sum < 0 ? -1 : 0);
 }
 
-Grid build_grid(const Points& pts, double h, int dilation) {
-  Grid g;
-  g.h = h;
-  g.dilation = dilation;
-  const Eigen::RowVector3d lo = pts.colwise().minCoeff(), hi = pts.colwise().maxCoeff();
-  const int pad = dilation + 3;
-  // The grid is shifted by 0.37 voxel so that a face on the bounding box (or any coordinate
-  // quantised to a multiple of h) does not sit on a voxel boundary, where rounding would put
-  // the two offsets of a step unequally far from it.
-  g.origin = lo.array() - (double(pad) + 0.37) * h;
-  for (int a = 0; a < 3; ++a)
-    g.dims[size_t(a)] = int64_t(std::ceil((hi[a] - lo[a]) / h)) + 2 * pad + 1;
-  g.cell.assign(size_t(g.dims[0] * g.dims[1] * g.dims[2]), 0);
-  for (Eigen::Index i = 0; i < pts.rows(); ++i) g.cell[size_t(g.locate(pts.row(i)))] = 1;
-
-  // Dilation by 6-connected steps (a diamond of radius `dilation`), one linear pass each: a
-  // neighbour across a row's end is a padding voxel of the next row, empty like the one it
-  // stands for (the padding is wider than the dilation), so the wrap changes nothing.
+// Dilation by 6-connected steps (a diamond of radius `dilation`), one linear pass each: a
+// neighbour across a row's end is a padding voxel of the next row, empty like the one it stands
+// for (the padding is wider than the dilation), so the wrap changes nothing.
+void dilate(SidesGrid& g) {
   const int64_t total = int64_t(g.cell.size());
   const int64_t sx = g.dims[1] * g.dims[2], sy = g.dims[2];
   std::vector<uint8_t> next(g.cell.size(), 0);
-  for (int it = 0; it < dilation; ++it) {
+  for (int it = 0; it < g.dilation; ++it) {
     const uint8_t* c = g.cell.data();
     uint8_t* o = next.data();
     for (int64_t i = sx; i < total - sx; ++i)
       o[i] = c[i] | c[i - 1] | c[i + 1] | c[i - sy] | c[i + sy] | c[i - sx] | c[i + sx];
     g.cell.swap(next);
   }
+}
 
-  // Flood fill of the empty space connected (6-neighbours) to the corner voxel, which the
-  // padding keeps empty; breadth first, one wavefront at a time (the fronts hold a surface's
-  // worth of voxels, not the volume).
-  const int64_t stride[3] = {sx, sy, 1};
+// Flood fill of the empty space connected (6-neighbours) to the corner voxel, which the padding
+// keeps empty; breadth first, one wavefront at a time (the fronts hold a surface's worth of
+// voxels, not the volume).
+void flood_outside(SidesGrid& g) {
+  const int64_t sx = g.dims[1] * g.dims[2];
+  const int64_t stride[3] = {sx, g.dims[2], 1};
   std::vector<int64_t> front{0}, grown;
   g.cell[0] = 2;
   while (!front.empty()) {
@@ -146,50 +133,151 @@ Grid build_grid(const Points& pts, double h, int dilation) {
     }
     front.swap(grown);
   }
+}
+
+Grid build_grid(const Points& pts, double h, int dilation) {
+  Grid g(sides_grid_frame(pts.colwise().minCoeff(), pts.colwise().maxCoeff(), h, dilation));
+  for (Eigen::Index i = 0; i < pts.rows(); ++i) g.cell[size_t(g.locate(pts.row(i)))] = 1;
+  dilate(g);
+  flood_outside(g);
   return g;
 }
 
 }  // namespace
 
-InsideOutside::InsideOutside(const Points& points, const Normals& normals, double spacing,
-                             const InsideOutsideOptions& options, int threads) {
-  const Eigen::Index m = points.rows();
-  votes_.assign(size_t(m), 0);
-  if (m < 4 || !(spacing > 0)) return;
-  const Eigen::RowVector3d extent = points.colwise().maxCoeff() - points.colwise().minCoeff();
+// The candidates in the order tried: voxel_spacings x spacing (at least extent / max_side,
+// repeats skipped), each with every dilation; none when even the coarsest voxel_spacings of the
+// typical spacing is finer than the grid can be.
+SidesGridPlan grid_plan(const Eigen::RowVector3d& lo, const Eigen::RowVector3d& hi, double spacing,
+                        const InsideOutsideOptions& options) {
+  SidesGridPlan plan;
+  plan.max_leak = options.max_leak;
+  const Eigen::RowVector3d extent = hi - lo;
   const double floor_h = extent.maxCoeff() / double(std::max(8, options.max_side));
   // An extent beyond the double range (coordinates near +-1e308) has no grid: no votes.
-  if (!std::isfinite(floor_h)) return;
+  if (!std::isfinite(floor_h)) return plan;
   if (options.typical_spacing > 0 && !options.voxel_spacings.empty() &&
       floor_h > *std::max_element(options.voxel_spacings.begin(), options.voxel_spacings.end()) *
                     options.typical_spacing)
-    return;
+    return plan;
   double last_h = 0;
-  std::vector<int8_t> votes(static_cast<size_t>(m));
   for (const double factor : options.voxel_spacings) {
     const double h = std::max(factor * spacing, floor_h);
     if (!std::isfinite(h) || !(h > 0)) break;
     if (h <= last_h) continue;  // capped by max_side: the same grid again
     last_h = h;
     for (const int dilation : options.dilations) {
-      auto g = std::make_unique<Grid>(build_grid(points, h, dilation));
-      ++grids_built_;
-      std::vector<uint8_t> leaked(static_cast<size_t>(m), 0);
-      parallel_for(m, threads, nullptr, [&](int64_t i) {
-        bool l = false;
-        votes[size_t(i)] = grid_vote(*g, points.row(i), normals.row(i), &l);
-        leaked[size_t(i)] = l ? 1 : 0;
-      });
-      int64_t both = 0;
-      for (const uint8_t l : leaked) both += l;
-      leak_ = double(both) / double(m);
-      if (leak_ < options.max_leak) {
-        votes_.swap(votes);
-        grid_ = std::move(g);
-        return;
-      }
+      plan.h.push_back(h);
+      plan.dilation.push_back(dilation);
     }
   }
+  return plan;
+}
+
+}  // namespace nhnet::detail
+
+namespace nhnet {
+
+SidesGridPlan sides_grid_plan(const Eigen::RowVector3d& lo, const Eigen::RowVector3d& hi,
+                              double spacing, double typical_spacing) {
+  detail::InsideOutsideOptions options;
+  options.typical_spacing = typical_spacing;
+  if (!(spacing > 0)) return SidesGridPlan{{}, {}, options.max_leak};
+  return detail::grid_plan(lo, hi, spacing, options);
+}
+
+SidesGrid sides_grid_frame(const Eigen::RowVector3d& lo, const Eigen::RowVector3d& hi, double h,
+                           int dilation) {
+  if (!(h > 0) || !std::isfinite(h) || dilation < 0 || !lo.allFinite() || !hi.allFinite())
+    throw InvalidOptions("sides grid: needs a finite box, a voxel > 0 and a dilation >= 0");
+  SidesGrid g;
+  g.h = h;
+  g.dilation = dilation;
+  const int pad = dilation + 3;
+  // The grid is shifted by 0.37 voxel so that a face on the bounding box (or any coordinate
+  // quantised to a multiple of h) does not sit on a voxel boundary, where rounding would put
+  // the two offsets of a step unequally far from it.
+  g.origin = lo.array() - (double(pad) + 0.37) * h;
+  for (int a = 0; a < 3; ++a)
+    g.dims[size_t(a)] = int64_t(std::ceil((hi[a] - lo[a]) / h)) + 2 * pad + 1;
+  g.cell.assign(size_t(g.dims[0] * g.dims[1] * g.dims[2]), 0);
+  return g;
+}
+
+std::vector<int64_t> sides_grid_voxels(const SidesGrid& grid, const Points& points) {
+  detail::InsideOutside::Grid view;  // the lookups only read origin, h and dims
+  view.origin = grid.origin;
+  view.h = grid.h;
+  view.dims = grid.dims;
+  std::vector<int64_t> out(size_t(points.rows()));
+  for (Eigen::Index i = 0; i < points.rows(); ++i) out[size_t(i)] = view.locate(points.row(i));
+  return out;
+}
+
+void fill_sides_grid(SidesGrid& grid, const std::vector<int64_t>& occupied) {
+  const int64_t total = grid.dims[0] * grid.dims[1] * grid.dims[2];
+  if (int64_t(grid.cell.size()) != total)
+    throw InvalidOptions("sides grid: cell array does not match its dimensions");
+  for (const int64_t v : occupied) {
+    if (v < 0 || v >= total) throw InvalidOptions("sides grid: occupied voxel outside the grid");
+    grid.cell[size_t(v)] = 1;
+  }
+  detail::dilate(grid);
+  detail::flood_outside(grid);
+}
+
+}  // namespace nhnet
+
+namespace nhnet::detail {
+
+InsideOutside::InsideOutside(const Points& points, const Normals& normals, double spacing,
+                             const InsideOutsideOptions& options, int threads) {
+  const Eigen::Index m = points.rows();
+  votes_.assign(size_t(m), 0);
+  if (m < 4 || !(spacing > 0)) return;
+  const SidesGridPlan plan =
+      grid_plan(points.colwise().minCoeff(), points.colwise().maxCoeff(), spacing, options);
+  std::vector<int8_t> votes(static_cast<size_t>(m));
+  for (size_t c = 0; c < plan.h.size(); ++c) {
+    auto g = std::make_unique<Grid>(build_grid(points, plan.h[c], plan.dilation[c]));
+    ++grids_built_;
+    std::vector<uint8_t> leaked(static_cast<size_t>(m), 0);
+    parallel_for(m, threads, nullptr, [&](int64_t i) {
+      bool l = false;
+      votes[size_t(i)] = grid_vote(*g, points.row(i), normals.row(i), &l);
+      leaked[size_t(i)] = l ? 1 : 0;
+    });
+    int64_t both = 0;
+    for (const uint8_t l : leaked) both += l;
+    leaked_ = both;
+    leak_ = double(both) / double(m);
+    if (leak_ < plan.max_leak) {
+      votes_.swap(votes);
+      grid_ = std::move(g);
+      return;
+    }
+  }
+}
+
+InsideOutside::InsideOutside(const Points& points, const Normals& normals, const SidesGrid& grid,
+                             int threads) {
+  const Eigen::Index m = points.rows();
+  votes_.assign(size_t(m), 0);
+  const int64_t total = grid.dims[0] * grid.dims[1] * grid.dims[2];
+  if (!(grid.h > 0) || int64_t(grid.cell.size()) != total || total == 0)
+    throw InvalidOptions("orient: the given sides grid does not match its dimensions");
+  grid_ = std::make_unique<Grid>(grid);
+  grids_built_ = 0;
+  std::vector<uint8_t> leaked(static_cast<size_t>(m), 0);
+  parallel_for(m, threads, nullptr, [&](int64_t i) {
+    bool l = false;
+    votes_[size_t(i)] = grid_vote(*grid_, points.row(i), normals.row(i), &l);
+    leaked[size_t(i)] = l ? 1 : 0;
+  });
+  int64_t both = 0;
+  for (const uint8_t l : leaked) both += l;
+  leaked_ = both;
+  leak_ = m > 0 ? double(both) / double(m) : 0;
 }
 
 InsideOutside::~InsideOutside() = default;

@@ -11,6 +11,7 @@
 // coarsened step by step, and when no grid is watertight no point gets a vote.
 #pragma once
 
+#include "nhnet/orient/sides_grid.hpp"
 #include "nhnet/types.hpp"
 
 #include <cstdint>
@@ -42,6 +43,11 @@ struct InsideOutsideOptions {
   double typical_spacing = 0;
 };
 
+/// The grids tried for points in [lo, hi] with mean nearest distance `spacing` (> 0), in order
+/// (sides_grid.hpp sides_grid_plan, with these options).
+SidesGridPlan grid_plan(const Eigen::RowVector3d& lo, const Eigen::RowVector3d& hi, double spacing,
+                        const InsideOutsideOptions& options);
+
 /// The flood-filled grid of a cloud, and the votes it gives.
 class InsideOutside {
  public:
@@ -50,6 +56,10 @@ class InsideOutside {
   /// each of the M normals (votes()) on `threads` threads (0 = all cores).
   InsideOutside(const Points& points, const Normals& normals, double spacing,
                 const InsideOutsideOptions& options = {}, int threads = 0);
+  /// The votes for `points` / `normals` (as above) on a grid decided elsewhere (the whole
+  /// cloud's, for one of its tiles: sides_grid.hpp), whatever its leak. Throws InvalidOptions
+  /// for a grid whose cells do not match its dimensions.
+  InsideOutside(const Points& points, const Normals& normals, const SidesGrid& grid, int threads);
   ~InsideOutside();
   InsideOutside(const InsideOutside&) = delete;
   InsideOutside& operator=(const InsideOutside&) = delete;
@@ -64,6 +74,8 @@ class InsideOutside {
   /// Share of the points whose both offsets reached the outside on the grid used (on the
   /// coarsest grid tried when none was watertight).
   double leak() const { return leak_; }
+  /// The number of those points (leak() x M).
+  int64_t leaked() const { return leaked_; }
   /// Grids built and flood-filled (0 when none was tried).
   int grids_built() const { return grids_built_; }
 
@@ -73,6 +85,7 @@ class InsideOutside {
   std::unique_ptr<Grid> grid_;
   std::vector<int8_t> votes_;
   double leak_ = 1;
+  int64_t leaked_ = 0;
   int grids_built_ = 0;
 };
 

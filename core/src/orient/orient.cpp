@@ -142,6 +142,7 @@ struct Graph {
   double noise = 0;           ///< typical offset of a neighbour from a point's guide plane
   double spacing = 0;         ///< mean distance to the nearest other point (the flood fill's unit)
   double median_spacing = 0;  ///< its median (blind to a few far outliers)
+  std::vector<double> nearest;  ///< per point, that distance (+inf without edges)
 };
 
 /// Copies the rows `used` of points and normals into pts and guide (unit length: the first guide).
@@ -159,23 +160,24 @@ void gather_rows(const Points& points, const Normals& normals, const std::vector
 void link_neighbours(const Points& pts, const IndexMatrix& knn, int k, int threads, Graph& graph) {
   const Eigen::Index m = pts.rows();
   graph.adj.link(knn, k, threads);
-  std::vector<double> nearest(size_t(m), std::numeric_limits<double>::infinity());
-  detail::parallel_for(m, threads, nullptr, [&](int64_t i) {
+  graph.nearest.assign(size_t(m), std::numeric_limits<double>::infinity());
+  int64_t counted = 0;
+  std::vector<double> nearest_all;
+  nearest_all.reserve(size_t(m));
+  for (Eigen::Index i = 0; i < m; ++i) {
+    double nearest = std::numeric_limits<double>::infinity();
     for (Eigen::Index c = 1; c < k; ++c) {
       const int32_t j = knn(i, c);
       if (j == int32_t(i)) continue;
-      nearest[size_t(i)] = std::min(nearest[size_t(i)], (pts.row(j) - pts.row(i)).norm());
+      nearest = std::min(nearest, (pts.row(j) - pts.row(i)).norm());
     }
-  });
-  int64_t counted = 0;  // summed in order, as one thread would
-  std::vector<double> nearest_all;
-  nearest_all.reserve(size_t(m));
-  for (const double d : nearest)
-    if (std::isfinite(d)) {
-      graph.spacing += d;
-      nearest_all.push_back(d);
+    graph.nearest[size_t(i)] = nearest;
+    if (std::isfinite(nearest)) {
+      graph.spacing += nearest;
+      nearest_all.push_back(nearest);
       ++counted;
     }
+  }
   if (counted > 0) graph.spacing /= double(counted);
   graph.median_spacing = detail::quantile(std::move(nearest_all), 0.5);
 }
@@ -339,11 +341,10 @@ class Prim {
 
 /// A vote its decided neighbours disagree with (on the whole, weighted by the pairs'
 /// consistency) is dropped: the tree then reaches that point from them.
-void drop_disputed_votes(const Prim& prim, const Adjacency& adj, std::vector<int8_t>& vote,
-                         int threads) {
+void drop_disputed_votes(const Prim& prim, const Adjacency& adj, std::vector<int8_t>& vote) {
   std::vector<int8_t> keep = vote;
-  detail::parallel_for(int64_t(vote.size()), threads, nullptr, [&](int64_t i) {
-    if (vote[size_t(i)] == 0) return;
+  for (Eigen::Index i = 0; i < Eigen::Index(vote.size()); ++i) {
+    if (vote[size_t(i)] == 0) continue;
     double agree = 0, total = 0;
     for (int32_t j : adj[size_t(i)]) {
       if (vote[size_t(j)] == 0) continue;
@@ -352,7 +353,7 @@ void drop_disputed_votes(const Prim& prim, const Adjacency& adj, std::vector<int
       total += std::abs(c);
     }
     if (total > 0 && agree < -kCleanup * total) keep[size_t(i)] = 0;
-  });
+  }
   vote.swap(keep);
 }
 
@@ -383,13 +384,15 @@ std::unique_ptr<detail::InsideOutside> grow_from_sides(Prim& prim, const Points&
                                                        OrientResult& res) {
   detail::InsideOutsideOptions io;
   io.typical_spacing = graph.median_spacing;
-  auto sides =
-      std::make_unique<detail::InsideOutside>(pts, guide, graph.spacing, io, options.run.threads);
+  auto sides = options.sides ? std::make_unique<detail::InsideOutside>(pts, guide, *options.sides,
+                                                                       options.run.threads)
+                             : std::make_unique<detail::InsideOutside>(pts, guide, graph.spacing,
+                                                                       io, options.run.threads);
   res.voxel = sides->voxel();
   std::vector<int8_t> vote = sides->votes();
   for (Eigen::Index i = 0; i < guide.rows(); ++i)
     if (vote[size_t(i)] < 0) guide.row(i) *= -1.0;
-  drop_disputed_votes(prim, graph.adj, vote, options.run.threads);
+  drop_disputed_votes(prim, graph.adj, vote);
   res.inside_outside_votes += grow_from_votes(prim, vote);
   return sides;
 }
@@ -438,11 +441,11 @@ void grow_from_tops(Prim& prim, const Points& pts, Normals& guide, const OrientO
 /// `used` whether it was oriented.
 std::vector<uint8_t> copy_signs(const Points& pts, const Normals& guide,
                                 const detail::InsideOutside* sides,
-                                const std::vector<int64_t>& used, int threads, Normals& normals,
+                                const std::vector<int64_t>& used, Normals& normals,
                                 OrientResult& res) {
   const Eigen::Index m = pts.rows();
-  std::vector<int8_t> sign(static_cast<size_t>(m), 0);  // -1 flip, +1 keep, 0 undecided
-  detail::parallel_for(m, threads, nullptr, [&](int64_t li) {
+  std::vector<uint8_t> oriented(static_cast<size_t>(m), 0);
+  for (Eigen::Index li = 0; li < m; ++li) {
     const int64_t row = used[size_t(li)];
     double d = normals.row(row).dot(guide.row(li));
     // A normal far from its guide (a sharp normal at an edge, where the guide is the bisector)
@@ -451,17 +454,13 @@ std::vector<uint8_t> copy_signs(const Points& pts, const Normals& guide,
       const int8_t v = sides->vote(pts.row(li), normals.row(row).normalized());
       if (v != 0) d = double(v);
     }
-    sign[size_t(li)] = int8_t(d < 0 ? -1 : d != 0 ? 1 : 0);
-  });
-  std::vector<uint8_t> oriented(static_cast<size_t>(m), 0);
-  for (Eigen::Index li = 0; li < m; ++li) {
-    if (sign[size_t(li)] == 0) {
+    if (!(d != 0)) {
       ++res.unoriented;
       continue;
     }
     oriented[size_t(li)] = 1;
-    if (sign[size_t(li)] < 0) {
-      normals.row(used[size_t(li)]) *= -1.0;
+    if (d < 0) {
+      normals.row(row) *= -1.0;
       ++res.flipped;
     }
   }
@@ -497,7 +496,7 @@ std::vector<uint8_t> orient_mst(const Points& points, Normals& normals,
   grow_from_tops(prim, pts, guide, options);
   progress.throw_if_cancelled();
 
-  return copy_signs(pts, guide, sides.get(), used, options.run.threads, normals, res);
+  return copy_signs(pts, guide, sides.get(), used, normals, res);
 }
 
 /// MST orientation with exact duplicates seen once: k copies of a position would form their
@@ -581,20 +580,6 @@ void orient_keep(Normals& normals, const Normals& reference, const std::vector<i
   res.flipped = orient_like(normals, reference);
 }
 
-/// Viewpoint: every normal towards the sensor, (v - p_i) . n_i > 0.
-void orient_viewpoint(const Points& points, Normals& normals, const Eigen::Vector3d& viewpoint,
-                      const std::vector<int64_t>& used, OrientResult& res) {
-  for (int64_t i : used) {
-    const double d = (viewpoint.transpose() - points.row(i)).dot(normals.row(i));
-    if (d < 0) {
-      normals.row(i) *= -1.0;
-      ++res.flipped;
-    } else if (!(d > 0)) {
-      ++res.unoriented;
-    }
-  }
-}
-
 }  // namespace
 
 OrientResult orient_normals(const Points& points, Normals& normals, const OrientOptions& options,
@@ -608,10 +593,12 @@ OrientResult orient_normals(const Points& points, Normals& normals, const Orient
     case OrientMode::None: break;
     case OrientMode::Keep: orient_keep(normals, reference, used, res); break;
     case OrientMode::Viewpoint:
-      orient_viewpoint(points, normals, options.viewpoint, used, res);
+      detail::orient_towards(points, normals, {options.viewpoint}, {}, used, res);
       break;
     case OrientMode::Mst: orient_mst_deduplicated(points, normals, used, options, res); break;
-    case OrientMode::Sensors: detail::orient_sensors(points, normals, options, used, res); break;
+    case OrientMode::Sensors:
+      detail::orient_towards(points, normals, options.sensors, options.sensor_index, used, res);
+      break;
     case OrientMode::Up: {
       const Normals before = normals;
       OrientResult mst;
@@ -622,6 +609,72 @@ OrientResult orient_normals(const Points& points, Normals& normals, const Orient
     case OrientMode::Auto: break;  // refused by check_options
   }
   return res;
+}
+
+namespace {
+
+/// A tile's distinct valid rows (ascending), their points and guides, and the MST's graph.
+struct TileGraph {
+  std::vector<int64_t> rows;
+  Points pts;
+  Normals guide;
+  Graph graph;
+};
+
+TileGraph tile_graph(const Points& points, const Normals& normals, int64_t own,
+                     const OrientOptions& options) {
+  if (normals.rows() != points.rows() || own < 0 || own > points.rows())
+    throw InvalidOptions("orient tile: " + std::to_string(normals.rows()) + " normals for " +
+                         std::to_string(points.rows()) + " points, " + std::to_string(own) +
+                         " of them own");
+  OrientResult ignored;
+  TileGraph t;
+  t.rows = valid_rows(points, normals, ignored);
+  detail::dedupe_exact(points, t.rows);
+  std::sort(t.rows.begin(), t.rows.end());  // input order, as orient_mst_deduplicated
+  t.pts.resize(Eigen::Index(t.rows.size()), 3);
+  t.guide.resize(Eigen::Index(t.rows.size()), 3);
+  gather_rows(points, normals, t.rows, t.pts, t.guide);
+  t.graph = build_graph(t.pts, t.guide, options);
+  return t;
+}
+
+}  // namespace
+
+std::vector<double> mst_nearest(const Points& points, const Normals& normals, int64_t own,
+                                const OrientOptions& options) {
+  OrientOptions plain = options;
+  plain.smooth_guide = false;  // the graph's first k columns are the same without the guide
+  const TileGraph t = tile_graph(points, normals, own, plain);
+  std::vector<double> out;
+  for (size_t i = 0; i < t.rows.size(); ++i)
+    if (t.rows[i] < own && i < t.graph.nearest.size() && std::isfinite(t.graph.nearest[i]))
+      out.push_back(t.graph.nearest[i]);
+  return out;
+}
+
+MstGuides mst_guides(const Points& points, const Normals& normals, int64_t own,
+                     const OrientOptions& options) {
+  const TileGraph t = tile_graph(points, normals, own, options);
+  std::vector<Eigen::Index> mine;
+  for (size_t i = 0; i < t.rows.size(); ++i)
+    if (t.rows[i] < own) mine.push_back(Eigen::Index(i));
+  MstGuides out;
+  out.points.resize(Eigen::Index(mine.size()), 3);
+  out.guides.resize(Eigen::Index(mine.size()), 3);
+  for (size_t i = 0; i < mine.size(); ++i) {
+    out.points.row(Eigen::Index(i)) = t.pts.row(mine[i]);
+    out.guides.row(Eigen::Index(i)) = t.guide.row(mine[i]);
+  }
+  return out;
+}
+
+int64_t sides_leaked(const Points& points, const Normals& guides, const SidesGrid& grid,
+                     int threads) {
+  if (guides.rows() != points.rows())
+    throw InvalidOptions("sides_leaked: " + std::to_string(guides.rows()) + " guides for " +
+                         std::to_string(points.rows()) + " points");
+  return detail::InsideOutside(points, guides, grid, threads).leaked();
 }
 
 }  // namespace nhnet

@@ -1,4 +1,4 @@
-// Sensors mode (orient.hpp): each normal towards its own point's sensor.
+// Sensors and viewpoint modes (orient.hpp): each normal towards its own point's sensor.
 #include "orient/sensors.hpp"
 
 #include "nhnet/errors.hpp"
@@ -22,11 +22,11 @@ void check_sensors(const Points& points, const OrientOptions& options) {
                            std::to_string(options.sensors.size()) + " sensors)");
 }
 
-void orient_sensors(const Points& points, Normals& normals, const OrientOptions& options,
+void orient_towards(const Points& points, Normals& normals,
+                    const std::vector<Eigen::Vector3d>& sensors, const std::vector<int32_t>& index,
                     const std::vector<int64_t>& used, OrientResult& res) {
-  const std::vector<int32_t>& index = options.sensor_index;
   for (const int64_t i : used) {
-    const Eigen::Vector3d& s = options.sensors[index.empty() ? 0 : size_t(index[size_t(i)])];
+    const Eigen::Vector3d& s = sensors[index.empty() ? 0 : size_t(index[size_t(i)])];
     const double d = (s.transpose() - points.row(i)).dot(normals.row(i));
     if (d < 0) {
       normals.row(i) *= -1.0;

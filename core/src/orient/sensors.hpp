@@ -14,9 +14,12 @@ namespace nhnet::detail {
 /// empty or has one entry per point naming one of them.
 void check_sensors(const Points& points, const OrientOptions& options);
 
-/// Sensors mode: each normal of the rows `used` towards its own point's sensor,
-/// (s - p_i) . n_i > 0; perpendicular ones count as unoriented.
-void orient_sensors(const Points& points, Normals& normals, const OrientOptions& options,
+/// Each normal of the rows `used` towards its own point's sensor (sensors[index[i]], or
+/// sensors[0] when `index` is empty), (s - p_i) . n_i > 0; perpendicular ones count as
+/// unoriented. The sensors mode (options.sensors, options.sensor_index) and the viewpoint mode
+/// (the viewpoint as the one sensor).
+void orient_towards(const Points& points, Normals& normals,
+                    const std::vector<Eigen::Vector3d>& sensors, const std::vector<int32_t>& index,
                     const std::vector<int64_t>& used, OrientResult& res);
 
 /// Up mode, the seeds of the MST: per row of `guide`, +1 when its sign is already decided

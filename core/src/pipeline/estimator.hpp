@@ -120,6 +120,10 @@ struct TileSizes {
 };
 TileSizes tile_sizes(const Probe& probe, const EstimateOptions& options, int64_t m);
 
+/// Surface variation (pca.hpp) of every row of `pts` at k neighbours: the tiled runs' first
+/// pass, tile by tile (tiling.cpp, tiles.cpp's tile_variation).
+Eigen::VectorXd surface_variation(const Points& pts, int k, const RunContext& run);
+
 /// Copies each duplicate's result from its first copy (`copies`, from Canonical), counts the
 /// failed rows and warns about the degenerate ones (beyond the N - finite_count non-finite).
 void finish_result(EstimateResult& res, const std::vector<int64_t>& copies, size_t finite_count);

@@ -10,6 +10,7 @@
 #include "nhnet/neighbors/neighbors.hpp"
 #include "pipeline/estimator.hpp"
 #include "pipeline/stream_tiles.hpp"
+#include "util/parallel.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -147,20 +148,25 @@ TileDecisions decide_tiles(const std::vector<TileProbeRows>& rows, const Estimat
   return d;
 }
 
+Eigen::VectorXd detail::surface_variation(const Points& pts, int k, const RunContext& run) {
+  IndexMatrix knn;
+  Neighbors(pts).knn_all(k, knn, nullptr, detail::narrow(run, 0, 0.7));
+  return pca_normals(pts, knn, PcaOptions{k}, detail::narrow(run, 0.7, 1)).variation;
+}
+
 Eigen::VectorXd tile_variation(const Points& pts, int64_t own, int k_smooth, int64_t step,
                                int threads) {
   std::vector<std::string> ignored;
   const detail::Canonical canon = detail::canonical_points(pts, ignored);
   const int k = int(std::min<Eigen::Index>(k_smooth, canon.pts.rows()));
-  IndexMatrix knn;
-  Neighbors(canon.pts).knn_all(k, knn, nullptr, RunContext{threads, {}});
-  const PcaResult pca = pca_normals(canon.pts, knn, PcaOptions{k}, RunContext{threads, {}});
+  const Eigen::VectorXd variation =
+      detail::surface_variation(canon.pts, k, RunContext{threads, {}});
   // Own points only, one value per distinct position (the in-memory run's canonical points).
   std::vector<double> kept;
   int64_t seen = 0;
   for (Eigen::Index c = 0; c < canon.pts.rows(); ++c)
     if (canon.rows[size_t(c)] < own && seen++ % std::max<int64_t>(1, step) == 0)
-      kept.push_back(pca.variation[c]);
+      kept.push_back(variation[c]);
   return Eigen::Map<const Eigen::VectorXd>(kept.data(), Eigen::Index(kept.size()));
 }
 

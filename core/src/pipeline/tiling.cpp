@@ -14,7 +14,6 @@
 
 #include "nhnet/errors.hpp"
 #include "nhnet/geometry/feature_detection.hpp"
-#include "nhnet/geometry/pca.hpp"
 #include "nhnet/learned/nhnet_model.hpp"
 #include "util/parallel.hpp"
 
@@ -156,12 +155,9 @@ double variation_threshold(const Points& pts, const Tiles& tiles, const TileSize
     const std::vector<int64_t> rows = tile_rows(pts, tiles.boxes[t], halo_factor * sizes.radius(k));
     const Points tile = gather(pts, rows);
     const RunContext r = narrow(run, double(t) / double(count), double(t + 1) / double(count));
-    IndexMatrix knn;
-    Neighbors(tile).knn_all(k, knn, nullptr, narrow(r, 0, 0.7));
-    const PcaResult pca = pca_normals(tile, knn, PcaOptions{k}, narrow(r, 0.7, 1));
+    const Eigen::VectorXd v = surface_variation(tile, k, r);
     for (size_t i = 0; i < rows.size(); ++i)
-      if (tiles.owner[size_t(rows[i])] == int32_t(t))
-        variation[rows[i]] = pca.variation[Eigen::Index(i)];
+      if (tiles.owner[size_t(rows[i])] == int32_t(t)) variation[rows[i]] = v[Eigen::Index(i)];
   }
   return detect_feature_candidates(variation).absolute_threshold;
 }

@@ -22,10 +22,12 @@
 //   none       leave the signs as they are
 #pragma once
 
+#include "nhnet/orient/sides_grid.hpp"
 #include "nhnet/progress.hpp"
 #include "nhnet/types.hpp"
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -83,6 +85,10 @@ struct OrientOptions {
   /// (docs/design/decisions.md#inside-or-outside-by-a-voxel-flood-fill): thin-bladed rotor 71 % ->
   /// 98 %, couplingdown at 0.4-0.5 % noise 92 % -> 99 %. false = the tree alone.
   bool inside_outside = true;
+  /// Mst with inside_outside: the flood-filled grid to vote on instead of building one from
+  /// the points (sides_grid.hpp): the whole cloud's grid, decided once and handed to each tile
+  /// of a distributed run. nullptr = built here, from these points.
+  std::shared_ptr<const SidesGrid> sides;
   /// Mirror only pairs whose offset along both normals exceeds reflect_noise x the noise (the
   /// median over the points of the median |(p_j - p_i) . n_i| over their k nearest); below that
   /// the mirror mostly reflects noise.
@@ -129,5 +135,28 @@ OrientResult orient_normals(const Points& points, Normals& normals, const Orient
 /// Rows where the reference is zero or non-finite are left as they are. Returns how many were
 /// flipped.
 int64_t orient_like(Normals& normals, const Normals& reference);
+
+/// Distributed MST (issue 25): for a tile given as its own rows [0, own) then its halo, the
+/// distance from each distinct valid own point to its nearest other point in the MST's graph
+/// over all the rows: the single-process MST's spacing terms (their mean is its flood fill's
+/// unit, their median its typical spacing), summed over tiles. Options as orient_normals'.
+std::vector<double> mst_nearest(const Points& points, const Normals& normals, int64_t own,
+                                const OrientOptions& options);
+
+/// Distributed MST: a tile's distinct valid own points (rows [0, own)) and their guide normals
+/// as the MST builds them over all the rows (OrientOptions::smooth_guide), the normals its flood
+/// fill votes with (sides_leaked).
+struct MstGuides {
+  Points points;
+  Normals guides;
+};
+MstGuides mst_guides(const Points& points, const Normals& normals, int64_t own,
+                     const OrientOptions& options);
+
+/// How many of `points` (with their unit `guides`) reach the outside of `grid` on both sides:
+/// summed over the tiles and divided by their count, the leak that decides whether the whole
+/// cloud's candidate grid is watertight (SidesGridPlan::max_leak), as in one process.
+int64_t sides_leaked(const Points& points, const Normals& guides, const SidesGrid& grid,
+                     int threads);
 
 }  // namespace nhnet

@@ -1,0 +1,76 @@
+"""Where the NH-Net network's CPU time goes, layer by layer (issue 23).
+
+    /usr/bin/python3 tools/net_profile.py [--model models/nhnet.pt] [--batch 4096]
+        [--threads 2] [--reps 3]
+
+Loads the model as the core does (model_torch.cpp: frozen, then optimize_for_inference), runs
+`reps` timed batches of random descriptors after two warm-up batches, and prints the points per
+second and oneDNN's own time per primitive (ONEDNN_VERBOSE, milliseconds summed over the timed
+batches; the run re-executes itself with the variable set, as oneDNN reads it once at start).
+"""
+
+from __future__ import annotations
+
+import argparse
+import collections
+import os
+import subprocess
+import sys
+import time
+
+
+def child(args) -> None:
+    import torch
+
+    torch.set_num_threads(args.threads)
+    m = torch.jit.optimize_for_inference(torch.jit.freeze(torch.jit.load(args.model).eval()))
+    x = torch.randn(args.batch, 468)
+    x[:, 27:] *= 0.3
+    with torch.inference_mode():
+        for _ in range(2):
+            m(x)
+        print("TIMED", flush=True)
+        t = time.perf_counter()
+        for _ in range(args.reps):
+            m(x)
+        wall = time.perf_counter() - t
+    print(f"POINTS_PER_S {args.batch * args.reps / wall:.0f}", flush=True)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
+    ap.add_argument("--model", default="models/nhnet.pt")
+    ap.add_argument("--batch", type=int, default=4096)
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--reps", type=int, default=3)
+    ap.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
+    args = ap.parse_args()
+    if args.child:
+        child(args)
+        return
+    env = dict(os.environ, ONEDNN_VERBOSE="1", DNNL_VERBOSE="1")
+    out = subprocess.run([sys.executable, __file__, "--child", "--model", args.model, "--batch",
+                          str(args.batch), "--threads", str(args.threads), "--reps",
+                          str(args.reps)], env=env, capture_output=True, text=True, check=True)
+    timed, pps = False, "?"
+    ms: dict[tuple[str, str, str], float] = collections.OrderedDict()
+    for line in out.stdout.splitlines():
+        if line == "TIMED":
+            timed = True
+        elif line.startswith("POINTS_PER_S"):
+            pps = line.split()[1]
+        elif timed and line.startswith(("onednn_verbose,exec", "dnnl_verbose,exec")):
+            f = line.split(",")
+            key = (f[3], f[4], f[-2])
+            ms[key] = ms.get(key, 0.0) + float(f[-1])
+    total = sum(ms.values()) or 1.0
+    print(f"{pps} points/s ({args.threads} threads, batch {args.batch}, {args.reps} batches)")
+    print(f"oneDNN primitives: {total:.0f} ms in all\n")
+    print("| primitive | implementation | shape | ms | share |")
+    print("|---|---|---|---|---|")
+    for (prim, impl, shape), v in ms.items():
+        print(f"| {prim} | {impl} | {shape} | {v:.0f} | {100 * v / total:.0f} % |")
+
+
+if __name__ == "__main__":
+    main()
