@@ -8,8 +8,8 @@
 #include "nhnet/learned/candidate_mix.hpp"
 #include "nhnet/pipeline/estimate.hpp"
 
-#include <Eigen/Geometry>
 #include <gtest/gtest.h>
+#include <Eigen/Geometry>
 
 #include <cmath>
 #include <limits>

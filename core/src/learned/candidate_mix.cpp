@@ -114,15 +114,16 @@ Normals mix_candidates(const CandidateMixInput& in, const RunContext& run) {
   const Eigen::Index m = in.net->rows();
   if (in.mfps->rows() != m || in.pca->rows() != m || in.blend_weight->size() != m ||
       in.variation->size() != m || in.knn->rows() != m || in.knn->cols() < kMixNeighbours)
-    throw InvalidOptions("candidate mix: inputs differ in size or the neighbour table has fewer "
-                         "than " + std::to_string(kMixNeighbours) + " columns");
+    throw InvalidOptions(
+        "candidate mix: inputs differ in size or the neighbour table has fewer "
+        "than " +
+        std::to_string(kMixNeighbours) + " columns");
   const Normals bl = blended(in);
   Normals out(m, 3);
   detail::Progress progress(run.progress);
   if (run.progress) progress.stage("candidate mix", 0, 1);
-  detail::parallel_for(m, run.threads, run.progress ? &progress : nullptr, [&](int64_t i) {
-    out.row(i) = mix_row(in, bl, i).transpose();
-  });
+  detail::parallel_for(m, run.threads, run.progress ? &progress : nullptr,
+                       [&](int64_t i) { out.row(i) = mix_row(in, bl, i).transpose(); });
   return out;
 }
 
