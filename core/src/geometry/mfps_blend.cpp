@@ -112,14 +112,17 @@ void blend_towards_pca(BlendCandidates candidates, const IndexMatrix& knn,
     features[t][8] = inconsistency(res.normals, knn, i, kBlendNeighbours);
     features[t][9] = inconsistency(base_normals, knn, i, kBlendNeighbours);
   }
+  std::vector<double> weights(features.size());
+  for (size_t t = 0; t < features.size(); ++t) weights[t] = blend_weight(features[t]);
   if (options.record_blend_features) record_features(features, res);
   if (options.pca_blend)
     for (size_t t = 0; t < candidates.rows.size(); ++t) {
       const Eigen::Index i = candidates.rows[t];
-      res.normals.row(i) = slerp_towards(res.normals.row(i).transpose(),
-                                         base_normals.row(i).transpose(), blend_weight(features[t]))
-                               .transpose();
+      res.normals.row(i) =
+          slerp_towards(res.normals.row(i).transpose(), base_normals.row(i).transpose(), weights[t])
+              .transpose();
     }
+  if (options.record_blend_features) res.blend_weights = std::move(weights);
   if (options.record_blend_features) res.blend_rows = std::move(candidates.rows);
 }
 

@@ -267,7 +267,8 @@ struct MfpsInput {
 /// other points keep their PCA normal. Fills the candidate flags, scales and blend diagnostics.
 Normals mfps_stage(const Points& pts, const IndexMatrix& knn, const PcaResult& pca,
                    const MfpsInput& in, const EstimateOptions& options,
-                   const detail::TileOverrides& overrides, EstimateResult& res) {
+                   const detail::TileOverrides& overrides, EstimateResult& res,
+                   Eigen::VectorXd* blend_weight) {
   const Eigen::Index m = pts.rows();
   FeatureDetectionOptions fo;
   fo.fixed_threshold = overrides.variation_threshold;
@@ -282,12 +283,19 @@ Normals mfps_stage(const Points& pts, const IndexMatrix& knn, const PcaResult& p
   const Eigen::VectorXd bw =
       residual_bandwidth(pts, knn, in.spacing, bo, detail::narrow(options.run, 0.45, 0.55));
   MfpsOptions mo = options.mfps;
+  const bool recorded = mo.record_blend_features;
+  mo.record_blend_features = recorded || blend_weight;
   mo.scales = in.choice.scales;
   for (int& s : mo.scales) s = int(std::min<Eigen::Index>(s, m));
   const MfpsResult mr = mfps_normals(pts, knn, 2.0 * bw, fd.candidate, pca.normals, mo,
                                      detail::narrow(options.run, 0.55, 1.0));
   res.scales_used = mo.scales;
-  if (mo.record_blend_features) {
+  if (blend_weight) {
+    blend_weight->setZero(m);
+    for (size_t t = 0; t < mr.blend_rows.size(); ++t)
+      (*blend_weight)[mr.blend_rows[t]] = mr.blend_weights[t];
+  }
+  if (recorded) {
     const Eigen::Index rows = Eigen::Index(mr.blend_rows.size());
     res.mfps_blend_features = mr.blend_features;
     res.mfps_unblended.resize(rows, 3);
@@ -309,6 +317,26 @@ void drop_planeless(const Points& pts, const IndexMatrix& knn, int kdepth, const
     if (!pca.row(i).allFinite() && out.row(i).allFinite() &&
         !fit_plane(pts, &knn(i, 0), kdepth, nullptr, nullptr).allFinite())
       out.row(i).setConstant(std::numeric_limits<double>::quiet_NaN());
+}
+
+/// The side outputs (canonical rows) back to input rows; duplicates share their first copy's.
+void scatter_side(const Normals& pca, const Eigen::VectorXd& weight, const detail::Canonical& canon,
+                  detail::GeometrySide& side) {
+  const Eigen::Index n = Eigen::Index(canon.copies.size());
+  side.pca.setConstant(n, 3, std::numeric_limits<double>::quiet_NaN());
+  side.blend_weight.setZero(n);
+  for (Eigen::Index i = 0; i < pca.rows(); ++i) {
+    const int64_t row = canon.rows[size_t(i)];
+    if (pca.row(i).allFinite()) side.pca.row(row) = pca.row(i).normalized();  // as scatter()
+    if (weight.size() == pca.rows()) side.blend_weight[row] = weight[i];
+  }
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const int64_t first = canon.copies[size_t(i)];
+    if (first >= 0 && first != i) {
+      side.pca.row(i) = side.pca.row(first);
+      side.blend_weight[i] = side.blend_weight[first];
+    }
+  }
 }
 
 /// Unit normals and curvatures of the canonical points back to their input rows.
@@ -337,7 +365,7 @@ EstimateResult empty_result(Eigen::Index n) {
 }
 
 EstimateResult estimate_geometry(const Points& points, const EstimateOptions& options,
-                                 const TileOverrides& overrides) {
+                                 const TileOverrides& overrides, GeometrySide* side) {
   start_threads(options.run.threads);  // before the big allocations
   EstimateResult res = empty_result(points.rows());
   const Canonical canon = canonical_points(points, res.warnings);
@@ -357,12 +385,14 @@ EstimateResult estimate_geometry(const Points& points, const EstimateOptions& op
 
   const PcaResult pca = pca_normals(pts, knn, PcaOptions{res.k_used}, narrow(run, 0.35, 0.45));
   Normals out = pca.normals;
+  Eigen::VectorXd weight;
   if (options.method == Method::Mfps) {
     out = mfps_stage(pts, knn, pca, MfpsInput{canon.rows, choice, kdepth, spacing}, options,
-                     overrides, res);
+                     overrides, res, side ? &weight : nullptr);
     drop_planeless(pts, knn, kdepth, pca.normals, out);
   }
   scatter(out, pca.variation, canon.rows, res);
+  if (side) scatter_side(pca.normals, weight, canon, *side);
   res.spacing = spacing * canon.unit;
   finish_result(res, canon.copies, canon.finite_count);
   if (run.progress) {

@@ -36,10 +36,21 @@ EstimateResult empty_result(Eigen::Index n);
 EstimateResult estimate_cloud(const Points& points, const EstimateOptions& options,
                               const TileOverrides& overrides);
 
+/// What the geometry stage knows besides its normals, for NH-Net's candidate mix
+/// (learned/candidate_mix.hpp); input rows, like EstimateResult.
+struct GeometrySide {
+  /// N x 3 PCA normals (k_used neighbours); NaN where the point failed.
+  Normals pca;
+  /// N: weight of the PCA normal in MFPS's PCA blend (mfps_blend.cpp), whether or not the blend
+  /// was applied; 0 for points that are no candidate or have no rival face.
+  Eigen::VectorXd blend_weight;
+};
+
 /// The geometry stage (paper Sec. 4): PCA everywhere, and MFPS near sharp features when
-/// options.method is Mfps (NH-Net's callers pass geometry_options(), which sets it).
+/// options.method is Mfps (NH-Net's callers pass geometry_options(), which sets it). With
+/// `side`, also what GeometrySide holds.
 EstimateResult estimate_geometry(const Points& points, const EstimateOptions& options,
-                                 const TileOverrides& overrides);
+                                 const TileOverrides& overrides, GeometrySide* side = nullptr);
 
 /// NH-Net on top of the geometry stage (paper Sec. 5, refine.cpp).
 EstimateResult estimate_nhnet(const Points& points, const EstimateOptions& options,

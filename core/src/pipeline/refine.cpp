@@ -1,7 +1,9 @@
 // NH-Net refinement of the MFPS normals (paper Sec. 5): the geometry stage's MFPS normals, their
 // descriptors (learned/descriptors.hpp), the trained model (learned/nhnet_model.hpp), then each
-// frame normal back to world coordinates, R^T n; block by block so memory stays bounded.
+// frame normal back to world coordinates, R^T n; block by block so memory stays bounded. Last,
+// not the paper's, the candidate mix (learned/candidate_mix.hpp).
 #include "nhnet/errors.hpp"
+#include "nhnet/learned/candidate_mix.hpp"
 #include "pipeline/estimator.hpp"
 #include "util/parallel.hpp"
 
@@ -80,6 +82,33 @@ int64_t refine_block(const DescriptorInput& in, Eigen::Index b, Eigen::Index len
   return kept;
 }
 
+/// The candidate mix (candidate_mix.hpp) of the described points: their network normals in
+/// `res`, their MFPS normals in `in`, PCA normals and blend weights in `side`.
+void mix_stage(const DescriptorInput& in, const detail::GeometrySide& side, const RunContext& run,
+               EstimateResult& res) {
+  const Eigen::Index m = Eigen::Index(in.rows.size());
+  if (m == 0 || in.knn.cols() < kMixNeighbours) return;  // too small a cloud: the network's
+  Normals net(m, 3), pca(m, 3);
+  Eigen::VectorXd weight(m), variation(m);
+  for (Eigen::Index r = 0; r < m; ++r) {
+    const Eigen::Index row = in.rows[size_t(r)];
+    net.row(r) = res.normals.row(row);
+    pca.row(r) = side.pca.row(row);
+    weight[r] = side.blend_weight[row];
+    variation[r] = res.curvature[row];
+  }
+  CandidateMixInput mi;
+  mi.net = &net;
+  mi.mfps = &in.normals;
+  mi.pca = &pca;
+  mi.blend_weight = &weight;
+  mi.variation = &variation;
+  mi.knn = &in.knn;
+  mi.noise_ratio = res.noise_ratio;
+  const Normals mixed = mix_candidates(mi, run);
+  for (Eigen::Index r = 0; r < m; ++r) res.normals.row(in.rows[size_t(r)]) = mixed.row(r);
+}
+
 }  // namespace
 
 namespace detail {
@@ -94,8 +123,10 @@ EstimateResult estimate_nhnet(const Points& points, const EstimateOptions& optio
   EstimateOptions eo = options;
   if (cb) eo.run.progress = [cb](double f, const std::string& s) { return cb(0.7 * f, s); };
   // The geometry stage as the model was trained on it (describe.hpp): MFPS without the blend.
+  GeometrySide side;
   EstimateResult geometry =
-      estimate_geometry(points, geometry_options(eo, DescribeOptions{}.mfps_pca_blend), overrides);
+      estimate_geometry(points, geometry_options(eo, DescribeOptions{}.mfps_pca_blend), overrides,
+                        options.model.candidate_mix ? &side : nullptr);
   DescriptorInput in =
       descriptor_input(points, std::move(geometry), DescriptorOptions{}, narrow(eo.run, 0.9, 1));
   EstimateResult res = std::move(in.geometry);
@@ -114,6 +145,12 @@ EstimateResult estimate_nhnet(const Points& points, const EstimateOptions& optio
     run.progress = block_progress(cb, b, len, m);
     kept += refine_block(in, b, len, *loaded, options, run, res);
     if (cb && !cb(0.7 + 0.3 * double(b + len) / double(m), "nhnet")) throw Cancelled();
+  }
+  if (options.model.candidate_mix) {
+    // A short stage after the last block: it reports at 100 % and can still be cancelled.
+    run.progress = cb ? ProgressCallback([cb](double, const std::string& s) { return cb(1, s); })
+                      : ProgressCallback();
+    mix_stage(in, side, run, res);
   }
   if (kept > 0)
     res.warnings.push_back(std::to_string(kept) +

@@ -111,10 +111,13 @@ struct MfpsResult {
   /// Patches whose plane was computed.
   int64_t patches = 0;
   /// With record_blend_features: the rows (of `points`) that have blend features, their
-  /// features (rows x kMfpsBlendFeatures) and every point's normal before the blend (N x 3).
+  /// features (rows x kMfpsBlendFeatures), every point's normal before the blend (N x 3) and
+  /// each row's blend weight (the fraction of the way to its PCA normal; applied only with
+  /// pca_blend).
   std::vector<int64_t> blend_rows;
   Eigen::MatrixXd blend_features;
   Normals unblended_normals;
+  std::vector<double> blend_weights;
 };
 
 /// Runs MFPS on `points` (N x 3). `knn` (N x K, K >= max scale, self first) is the shared

@@ -32,6 +32,9 @@ struct ModelOptions {
   std::shared_ptr<const NhNetModel> loaded;
   /// Block size: points whose descriptors are computed and run through the model at once.
   int batch = 4096;
+  /// Mix the network's normals with the PCA and MFPS candidates (candidate_mix.hpp; not the
+  /// paper's, lower RMS); false = the network's normals as they are (the paper's NH-Net).
+  bool candidate_mix = true;
 };
 
 /// A loaded model. Loading checks the metadata the exporter wrote (descriptor version, size,

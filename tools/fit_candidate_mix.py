@@ -1,0 +1,290 @@
+#!/usr/bin/env python3
+"""Fits NH-Net's candidate mix (core/src/learned/candidate_mix.cpp, candidate_mix_weights.inc).
+
+Three steps, each resumable (a cloud's data file is written once, atomically):
+
+    # per-point candidates and features of generated clouds (training split: 3 noise levels or
+    # density variants per model, cycled; clouds cut to 20 000 points, the benchmark's density)
+    PYTHONPATH=build/python:training /usr/bin/python3 tools/fit_candidate_mix.py data \\
+        --split train --out runs/mix/train
+    PYTHONPATH=build/python:training /usr/bin/python3 tools/fit_candidate_mix.py data \\
+        --split benchmark --out runs/mix/benchmark
+    # fit on the training split only, write the C++ weights
+    /usr/bin/python3 tools/fit_candidate_mix.py fit runs/mix/train \\
+        --write core/src/learned/candidate_mix_weights.inc
+    # per category and noise level: RMS, mean, PGP5, PGP10, share over 30 degrees
+    /usr/bin/python3 tools/fit_candidate_mix.py report runs/mix/benchmark \\
+        --weights core/src/learned/candidate_mix_weights.inc
+
+Candidates and features are those of core/include/nhnet/learned/candidate_mix.hpp, computed here
+from the same core calls the pipeline makes (nhnet.descriptors -> the shipped model, nhnet.estimate
+with method mfps and pca); the mix's weights are softmax outputs of a 2-layer tanh network; the
+loss is the mean over clouds of each cloud's mean squared angle error (every cloud weighs the
+same), so the fit aims at RMS. The data generator needs the generated data of
+`nhnet-datagen --set all` (training/README.md).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import sys
+from pathlib import Path
+
+import numpy as np
+
+FEATURES, CANDIDATES, HIDDEN, NEIGHBOURS = 11, 4, 32, 16
+LEVEL_CYCLE = [(0.0, "uniform"), (0.1, "uniform"), (0.3, "uniform"), (0.6, "uniform"),
+               (1.2, "uniform"), (0.0, "stripes"), (0.3, "gradient"), (0.5, "uniform"),
+               (0.05, "uniform"), (0.2, "uniform"), (0.4, "uniform"), (0.0, "gradient"),
+               (0.3, "stripes")]
+
+
+def unit(a):
+    return a / np.linalg.norm(a, axis=-1, keepdims=True)
+
+
+def angle(a, b):
+    """Unoriented angle between unit rows, radians (atan2 form, as the C++)."""
+    return np.arctan2(np.linalg.norm(np.cross(a, b), axis=-1), np.abs(np.sum(a * b, -1)))
+
+
+def slerp(a, b, w):
+    """Unit rows a rotated towards sign-aligned b by fraction w (mfps_blend.cpp slerp_towards)."""
+    b = np.where(np.sum(a * b, 1, keepdims=True) < 0, -b, b)
+    th = np.arccos(np.clip(np.sum(a * b, 1), -1, 1))
+    out, m = a.copy(), th > 1e-9
+    s = np.sin(th[m])[:, None]
+    out[m] = (np.sin((1 - w[m]) * th[m])[:, None] * a[m] + np.sin(w[m] * th[m])[:, None] * b[m]) / s
+    return unit(out)
+
+
+def pick_clouds(data_dir: Path, split: str):
+    idx = json.loads((data_dir / split / "index.json").read_text())["clouds"]
+    if split != "train":
+        return idx
+    models, out = sorted({c["model"] for c in idx}), []
+    for r in range(3):  # the first level of every model, then the second, then the third
+        for i, m in enumerate(models):
+            lv = LEVEL_CYCLE[(i + 4 * r) % len(LEVEL_CYCLE)]
+            out += [c for c in idx if c["model"] == m and (c["noise_percent"], c["variant"]) == lv]
+    return out
+
+
+def inconsistency(n, rows, nb):
+    return 1 - np.abs(np.einsum("nj,nkj->nk", n[rows], n[nb])).mean(1)
+
+
+def cloud_data(data_dir: Path, split: str, c: dict, model, threads: int) -> dict:
+    import nhnet
+    import torch
+    from scipy.spatial import cKDTree
+
+    xyz = np.loadtxt(data_dir / split / c["files"][0], ndmin=2)
+    gt = np.loadtxt(data_dir / split / c["files"][1], ndmin=2)
+    if split == "train" and len(xyz) > 20000:
+        keep = np.sort(np.random.default_rng(11).choice(len(xyz), 20000, replace=False))
+        xyz, gt = xyz[keep], gt[keep]
+    d = nhnet.descriptors(xyz, threads=threads)
+    bl = np.asarray(nhnet.estimate(xyz, method="mfps", orient=None, threads=threads).normals)
+    p = nhnet.estimate(xyz, method="pca", orient=None, threads=threads)
+    rows = np.sort(np.random.default_rng(7).choice(len(xyz), min(4000, len(xyz)), replace=False))
+    feats = d["features"][rows]
+    ok = np.isfinite(feats).all(1) & d["valid"][rows]
+    with torch.no_grad():
+        local = model(torch.from_numpy(np.nan_to_num(feats).astype(np.float32))).double().numpy()
+    un, pca = d["normals"], np.asarray(p.normals)
+    net = np.where(ok[:, None], np.einsum("nji,nj->ni", d["rotations"][rows], local), un[rows])
+    _, nb = cKDTree(xyz).query(xyz[rows], k=NEIGHBOURS)
+    return dict(net=unit(net), un=un[rows], bl=bl[rows], pca=pca[rows], gt=gt[rows],
+                curv=np.asarray(p.curvature)[rows], noise=d["noise_ratio"],
+                inc_pca=inconsistency(pca, rows, nb), inc_bl=inconsistency(bl, rows, nb),
+                inc_un=inconsistency(un, rows, nb), name=c["name"],
+                cat=c.get("category", ""), level=c["noise_percent"], variant=c["variant"])
+
+
+def cmd_data(a) -> int:
+    import torch
+    torch.set_num_threads(a.threads)
+    model = torch.jit.load(a.model).eval()
+    out = Path(a.out)
+    out.mkdir(parents=True, exist_ok=True)
+    for c in pick_clouds(Path(a.data_dir), a.split):
+        f = out / f"{c['name']}.npz"
+        if f.exists():
+            continue
+        tmp = out / f"{c['name']}.tmp.npz"
+        np.savez(tmp, **cloud_data(Path(a.data_dir), a.split, c, model, a.threads))
+        tmp.replace(f)
+        print(c["name"], flush=True)
+    return 0
+
+
+def features_and_candidates(z):
+    """The C++ mix_row(): features (M x FEATURES) and sign-aligned candidates (M x 4 x 3)."""
+    net, un, bl, pca = (unit(z[k]) for k in ("net", "un", "bl", "pca"))
+    a_up = angle(un, pca)
+    w = np.where(a_up > 1e-6, np.clip(angle(un, bl) / np.maximum(a_up, 1e-12), 0, 1), 0)
+    cand = np.stack([net, slerp(net, pca, w), pca, bl], 1)
+    cand *= np.where(np.sum(cand * net[:, None], -1, keepdims=True) < 0, -1, 1)
+    f = np.stack([angle(net, pca), angle(net, bl), angle(pca, bl), angle(net, un), w,
+                  (un != pca).any(1).astype(float), np.full(len(w), np.log(max(float(z["noise"]), 1e-4))),
+                  np.sqrt(np.clip(z["curv"], 0, 1)), z["inc_pca"], z["inc_bl"], z["inc_un"]], 1)
+    return f, cand
+
+
+def load_dir(d: str):
+    X, C, G, cid, meta = [], [], [], [], []
+    for i, f in enumerate(sorted(Path(d).glob("*.npz"))):
+        if f.name.endswith(".tmp.npz"):
+            continue
+        z = np.load(f)
+        x, c = features_and_candidates(z)
+        g = unit(z["gt"])
+        ok = np.isfinite(x).all(1) & np.isfinite(c).all((1, 2)) & np.isfinite(g).all(1)
+        X.append(x[ok]), C.append(c[ok]), G.append(g[ok]), cid.append(np.full(ok.sum(), len(meta)))
+        meta.append(dict(name=str(z["name"]), category=str(z["cat"]), noise=float(z["level"]),
+                         variant=str(z["variant"])))
+    return np.concatenate(X), np.concatenate(C), np.concatenate(G), np.concatenate(cid), meta
+
+
+def make_mix(torch):
+    class Mix(torch.nn.Module):
+        def __init__(self):
+            super().__init__()
+            self.l1 = torch.nn.Linear(FEATURES, HIDDEN)
+            self.l2 = torch.nn.Linear(HIDDEN, HIDDEN)
+            self.l3 = torch.nn.Linear(HIDDEN, CANDIDATES)
+            self.register_buffer("mean", torch.zeros(FEATURES, dtype=torch.float64))
+            self.register_buffer("scale", torch.ones(FEATURES, dtype=torch.float64))
+
+        def forward(self, x, c):
+            h = torch.tanh(self.l1((x - self.mean) / self.scale))
+            w = torch.softmax(self.l3(torch.tanh(self.l2(h))), -1)
+            n = (w[..., None] * c).sum(1)
+            return n / n.norm(dim=-1, keepdim=True).clamp_min(1e-12)
+    return Mix().double()
+
+
+def cmd_fit(a) -> int:
+    import torch
+    torch.manual_seed(a.seed)
+    torch.set_num_threads(a.threads)
+    X, C, G, cid, meta = load_dir(a.data)
+    x, c, g = (torch.from_numpy(v) for v in (X, C, G))
+    cw = torch.from_numpy(1.0 / np.bincount(cid)[cid])  # every cloud weighs the same
+    m = make_mix(torch)
+    m.mean.copy_(x.mean(0))
+    m.scale.copy_(x.std(0).clamp_min(1e-6))
+    opt = torch.optim.Adam(m.parameters(), lr=a.lr)
+    for e in range(a.epochs):
+        perm, tot = torch.randperm(len(x)), 0.0
+        for b in range(0, len(x), a.batch):
+            j = perm[b:b + a.batch]
+            n = m(x[j], c[j])
+            err = torch.atan2(torch.linalg.cross(n, g[j]).norm(dim=-1), (n * g[j]).sum(-1).abs())
+            loss = (err ** 2 * cw[j]).sum() / cw[j].sum()
+            opt.zero_grad()
+            loss.backward()
+            opt.step()
+            tot += float(loss) * len(j)
+        if e % 10 == 0 or e == a.epochs - 1:
+            print(f"epoch {e}: training RMS {np.degrees(np.sqrt(tot / len(x))):.3f} deg", flush=True)
+    print(f"{len(meta)} clouds, {len(x)} points")
+    if a.write:
+        write_inc(m, Path(a.write), a)
+    return 0
+
+
+def fmt(v) -> str:
+    return "{" + ", ".join(f"{float(t):.9g}" for t in v) + "}"
+
+
+def write_inc(m, path: Path, a) -> None:
+    p = {k: v.detach().numpy() for k, v in m.state_dict().items()}
+    rows = lambda w: ",\n    ".join(fmt(r) for r in w)
+    text = f"""// Written by tools/fit_candidate_mix.py (fit {a.data} --epochs {a.epochs} --seed {a.seed});
+// do not edit. Weights of the candidate mix (candidate_mix.hpp), fitted on the training split.
+// clang-format off
+constexpr std::array<double, kMixFeatures> kMean = {fmt(p['mean'])};
+constexpr std::array<double, kMixFeatures> kScale = {fmt(p['scale'])};
+constexpr std::array<std::array<double, kMixFeatures>, kMixHidden> kW1 = {{{{
+    {rows(p['l1.weight'])}}}}};
+constexpr std::array<double, kMixHidden> kB1 = {fmt(p['l1.bias'])};
+constexpr std::array<std::array<double, kMixHidden>, kMixHidden> kW2 = {{{{
+    {rows(p['l2.weight'])}}}}};
+constexpr std::array<double, kMixHidden> kB2 = {fmt(p['l2.bias'])};
+constexpr std::array<std::array<double, kMixHidden>, kMixCandidates> kW3 = {{{{
+    {rows(p['l3.weight'])}}}}};
+constexpr std::array<double, kMixCandidates> kB3 = {fmt(p['l3.bias'])};
+// clang-format on
+"""
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text(text)
+    tmp.replace(path)
+    print(f"wrote {path}")
+
+
+def read_inc(path: Path, torch):
+    """The weights back from a .inc file (report on exactly what the C++ runs)."""
+    text = path.read_text()
+    m = make_mix(torch)
+    def arr(name):
+        body = re.search(name + r" = \{(.*?)\};", text, re.S).group(1)
+        return torch.tensor([float(t) for t in re.sub(r"[{}\s]", "", body).split(",") if t],
+                            dtype=torch.float64)
+    with torch.no_grad():
+        m.mean.copy_(arr("kMean")), m.scale.copy_(arr("kScale"))
+        for layer, (wn, bn) in zip((m.l1, m.l2, m.l3), (("kW1", "kB1"), ("kW2", "kB2"), ("kW3", "kB3"))):
+            layer.weight.copy_(arr(wn).reshape(layer.weight.shape))
+            layer.bias.copy_(arr(bn))
+    return m
+
+
+def cmd_report(a) -> int:
+    import torch
+    sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "training"))
+    from nhnet_training.evaluate import report
+    from nhnet_training.metrics import angle_stats
+    X, C, G, cid, meta = load_dir(a.data)
+    with torch.no_grad():
+        mix = read_inc(Path(a.weights), torch)(torch.from_numpy(X), torch.from_numpy(C)).numpy()
+    names = ["net", "net+blend", "pca-auto", "mfps", "mix"]
+    rows = []
+    for i, mt in enumerate(meta):
+        s = cid == i
+        r = dict(mt)
+        for k, n in enumerate(names[:4]):
+            r[n] = angle_stats(np.degrees(angle(C[s, k], G[s])))
+        r["mix"] = angle_stats(np.degrees(angle(mix[s], G[s])))
+        rows.append(r)
+    print(report(rows, names))
+    return 0
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = ap.add_subparsers(dest="cmd", required=True)
+    d = sub.add_parser("data")
+    d.add_argument("--split", choices=["train", "benchmark"], required=True)
+    d.add_argument("--out", required=True)
+    d.add_argument("--data-dir", default="data/generated")
+    d.add_argument("--model", default="models/nhnet.pt")
+    d.add_argument("--threads", type=int, default=2)
+    f = sub.add_parser("fit")
+    f.add_argument("data")
+    f.add_argument("--write", default="")
+    f.add_argument("--epochs", type=int, default=60)
+    f.add_argument("--batch", type=int, default=8192)
+    f.add_argument("--lr", type=float, default=3e-3)
+    f.add_argument("--seed", type=int, default=0)
+    f.add_argument("--threads", type=int, default=2)
+    r = sub.add_parser("report")
+    r.add_argument("data")
+    r.add_argument("--weights", required=True)
+    a = ap.parse_args(argv)
+    return {"data": cmd_data, "fit": cmd_fit, "report": cmd_report}[a.cmd](a)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
