@@ -311,9 +311,9 @@ class Job:
                             key=f"{self.token}-occupy-{i}-{t}") for t in tiles]
             path = c.submit(tasks.fill_grid, frame, occ, self.scratch, f"g{i}",
                             key=f"{self.token}-grid-{i}")
-            leaks = self._wait([c.submit(tasks.leak, t, boxes, dec["halo"], orient["k"],
-                                         self.a.threads, frame, path, self.scratch,
-                                         key=f"{self.token}-leak-{i}-{t}") for t in tiles],
+            leaks = self._wait([c.submit(tasks.leak, t, self.a.threads, frame, path,
+                                         self.scratch, key=f"{self.token}-leak-{i}-{t}")
+                                for t in tiles],
                                f"flood-fill grid {i + 1}")
             leaked, points = sum(x[0] for x in leaks), sum(x[1] for x in leaks)
             if points and leaked / points < max_leak:
