@@ -217,11 +217,15 @@ def _grid(frame, path):
     return dict(frame, cell=np.load(path)) if path else None
 
 
-def leak(t, threads, frame, path, scratch):
-    """(leaked, points) of tile t's distinct valid own points on the grid at `path`, voting
-    with the MST's guide normals (fitted once per tile by estimate)."""
+def leak(t, threads, frame, path, scratch, max_leak=None):
+    """(leaked, points, capped) of tile t's distinct valid own points on the grid at `path`,
+    voting with the MST's guide normals (fitted once per tile by estimate). With `max_leak` the
+    count stops once above that share of the tile's points (capped: then only a lower bound)."""
     g = np.load(os.path.join(scratch, "guides", f"t{t}.npz"))
-    return _core()._sides_leaked(g["p"], g["g"], _grid(frame, path), threads), len(g["p"])
+    n = len(g["p"])
+    limit = int(max_leak * n) + 1 if max_leak is not None else 0
+    leaked = _core()._sides_leaked(g["p"], g["g"], _grid(frame, path), threads, limit)
+    return leaked, n, limit > 0 and leaked >= limit
 
 
 def orient_tile(t, boxes, decisions, options, orient, chunk_rows, scratch, frame, path, base):

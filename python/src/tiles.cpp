@@ -268,14 +268,18 @@ void register_tiles(py::module_& m) {
       "guides and nearest distances, and every row's guide (orient.hpp mst_guides).");
   m.def(
       "_sides_leaked",
-      [](const py::handle& points, const py::handle& guides, const py::dict& grid, int threads) {
+      [](const py::handle& points, const py::handle& guides, const py::dict& grid, int threads,
+         int64_t limit) {
         const Points p = to_points(points, "points");
         const Normals g = to_points(guides, "guides");
         const SidesGrid grid_cells = grid_from_dict(grid, true);
         py::gil_scoped_release release;
-        return sides_leaked(p, g, grid_cells, threads);
+        return sides_leaked(p, g, grid_cells, threads, limit);
       },
-      "How many points leak on a grid with cells (orient.hpp sides_leaked).");
+      "How many points leak on a grid with cells, counted until `limit` when > 0 (orient.hpp "
+      "sides_leaked).",
+      py::arg("points"), py::arg("guides"), py::arg("grid"), py::arg("threads"),
+      py::arg("limit") = 0);
   m.def(
       "_orient_mst_tile",
       [](const py::handle& points, const py::handle& normals, int k, int threads,

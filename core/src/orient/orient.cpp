@@ -690,11 +690,11 @@ MstGuides mst_guides(const Points& points, const Normals& normals, int64_t own,
 }
 
 int64_t sides_leaked(const Points& points, const Normals& guides, const SidesGrid& grid,
-                     int threads) {
+                     int threads, int64_t limit) {
   if (guides.rows() != points.rows())
     throw InvalidOptions("sides_leaked: " + std::to_string(guides.rows()) + " guides for " +
                          std::to_string(points.rows()) + " points");
-  return detail::InsideOutside(points, guides, grid, threads).leaked();
+  return detail::InsideOutside::count_leaked(points, guides, grid, threads, limit);
 }
 
 }  // namespace nhnet

@@ -166,8 +166,11 @@ MstGuides mst_guides(const Points& points, const Normals& normals, int64_t own,
 
 /// How many of `points` (with their unit `guides`) reach the outside of `grid` on both sides:
 /// summed over the tiles and divided by their count, the leak that decides whether the whole
-/// cloud's candidate grid is watertight (SidesGridPlan::max_leak), as in one process.
+/// cloud's candidate grid is watertight (SidesGridPlan::max_leak), as in one process. With
+/// `limit` > 0 the count stops, in blocks of points, once it reaches `limit`: a count >= limit
+/// says only "at least limit" (an open cloud's grids leak almost everywhere, and a lower bound
+/// already above the limit decides as the full count would).
 int64_t sides_leaked(const Points& points, const Normals& guides, const SidesGrid& grid,
-                     int threads);
+                     int threads, int64_t limit = 0);
 
 }  // namespace nhnet
