@@ -192,8 +192,6 @@ def median_spacing(tiles, scratch):
     return float(np.partition(d, k)[k])
 
 
-
-
 def occupy(t, frame, scratch):
     """The voxels of the grid `frame` that tile t's own points with a valid normal occupy."""
     p = np.load(os.path.join(scratch, "ownp", f"t{t}.npz"))["p"]
