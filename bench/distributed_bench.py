@@ -90,21 +90,39 @@ def distributed(workers, inp, out, args, tmp):
                            env=ENV, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
           for _ in range(workers)]
     from distributed import Client
-    with Client(address, timeout=60) as c:
-        c.wait_for_workers(workers, timeout=120)
+    c = Client(address, timeout=60)
+    c.wait_for_workers(workers, timeout=120)
+    c.get_task_stream(start=time.time())  # the scheduler records tasks from now on
+    t0 = time.time()
     try:
         wall, client_mb, err = timed([sys.executable, "-m", "nhnet.distributed", "estimate",
                                       str(inp), str(out), "--scheduler", address, "--quiet",
                                       "--method", args.method, "--tile-points",
                                       str(args.tile_points), "--orient", *args.orient.split()])
         worker_mb = [peak_kb(w.pid) / 1024 for w in ws]
+        stages = task_seconds(c.get_task_stream(start=t0))
     finally:
+        c.close()
         for p in ws + procs:
             p.terminate()
         for p in ws + procs:
             p.wait()
     return {"wall_s": wall, "client_peak_mb": client_mb, "worker_peak_mb": worker_mb,
-            "log": err.strip().splitlines()[-2:]}
+            "stages": stages, "log": err.strip().splitlines()[-2:]}
+
+
+def task_seconds(records):
+    """Compute seconds summed over the workers per kind of task of the job: its task names are
+    TOKEN-KIND[-N...] (nhnet-PID-NS-leak-0-3 -> leak), probe-rough apart from probe; Dask's
+    own names FUNCTION-HASH (the job's unnamed tasks) -> FUNCTION."""
+    out = {}
+    for r in records:
+        key = r["key"] if isinstance(r["key"], str) else str(r["key"])
+        parts = key.split("-")[3:] if key.startswith("nhnet-") else key.split("-")[:1]
+        kind = "-".join(x for x in parts if not x.isdigit()) or key
+        s = sum(x["stop"] - x["start"] for x in r["startstops"] if x["action"] == "compute")
+        out[kind] = out.get(kind, 0.0) + s
+    return dict(sorted(out.items(), key=lambda kv: -kv[1]))
 
 
 def main():
@@ -164,6 +182,10 @@ def write_table(args, rows):
                      f"{', '.join(f'{m:.0f}' for m in r['worker_peak_mb'])} | "
                      f"{r['client_peak_mb']:.0f} | {r['cli_s']:.1f} | {r['cli_peak_mb']:.0f} | "
                      f"{100 * r['overhead']:+.0f} % | {load(r['load'])}; {load(r['cli_load'])} |")
+    lines += ["", "Task seconds of the distributed run per kind of task, summed over the workers:", ""]
+    for r in rows:
+        lines.append(f"- {r['workers']} worker(s): " + ", ".join(
+            f"{k} {v:.1f}" for k, v in r["stages"].items() if v >= 0.05))
     (out / "table.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
 

@@ -160,9 +160,11 @@ def estimate(t, boxes, decisions, options, orient, chunk_rows, scratch):
     base = {"tile": t, "own": own, "failed": int(own - valid[:own].sum()),
             "candidates": int(cand[:own].sum()) if len(cand) else 0, "warnings": warnings,
             "k_used": k_used, "scales_used": list(scales_used)}
-    if orient["mode"] == "mst":
-        _save(os.path.join(scratch, "raw", f"t{t}.npz"), normals=normals)
-        near = nh._mst_nearest(pts, normals, own, orient["k"], options["threads"])
+    if orient["mode"] == "mst":  # the MST's guides, fitted once for the leak counts and the MST
+        gp, gg, near, row_guides = nh._mst_guides(pts, normals, own, orient["k"],
+                                                  options["threads"])
+        _save(os.path.join(scratch, "raw", f"t{t}.npz"), normals=normals, guides=row_guides)
+        _save(os.path.join(scratch, "guides", f"t{t}.npz"), p=gp, g=gg)
         _save(os.path.join(scratch, "near", f"t{t}.npz"), d=near)
         ok = np.isfinite(pts[:own]).all(axis=1) & np.isfinite(normals[:own]).all(axis=1) & \
             (np.abs(normals[:own]).sum(axis=1) > 0)
@@ -190,12 +192,6 @@ def median_spacing(tiles, scratch):
     return float(np.partition(d, k)[k])
 
 
-def _own_valid(t, boxes, halo, scratch):
-    pts, rows, owner, own = load_tile(t, boxes, halo, scratch)
-    normals = np.load(os.path.join(scratch, "raw", f"t{t}.npz"))["normals"]
-    return pts, rows, owner, own, normals
-
-
 def occupy(t, frame, scratch):
     """The voxels of the grid `frame` that tile t's own points with a valid normal occupy."""
     p = np.load(os.path.join(scratch, "ownp", f"t{t}.npz"))["p"]
@@ -206,7 +202,7 @@ def fill_grid(frame, occupied, scratch, name):
     """The whole cloud's grid: every tile's occupied voxels, dilated and flood-filled (the
     core's), saved as scratch/grid/<name>.npy; returns its path."""
     occ = np.unique(np.concatenate(occupied)) if occupied else np.zeros(0, np.int64)
-    cell = _core()._fill_sides_grid(frame, occ.tolist())
+    cell = _core()._fill_sides_grid(frame, occ)
     path = os.path.join(scratch, "grid", f"{name}.npy")
     os.makedirs(os.path.dirname(path), exist_ok=True)
     tmp = f"{path}.tmp{os.getpid()}.npy"
@@ -219,27 +215,25 @@ def _grid(frame, path):
     return dict(frame, cell=np.load(path)) if path else None
 
 
-def leak(t, boxes, halo, k, threads, frame, path, scratch):
-    """(leaked, points) of tile t's distinct valid own points on the grid at `path`, voting
-    with the MST's guide normals (computed once per tile, kept in the scratch folder)."""
-    cache = os.path.join(scratch, "guides", f"t{t}.npz")
-    if os.path.exists(cache):
-        g = np.load(cache)
-        pts, guides = g["p"], g["g"]
-    else:
-        p, _, _, own, normals = _own_valid(t, boxes, halo, scratch)
-        pts, guides = _core()._mst_guides(p, normals, own, k, threads)
-        _save(cache, p=pts, g=guides)
-    return _core()._sides_leaked(pts, guides, _grid(frame, path), threads), len(pts)
+def leak(t, threads, frame, path, scratch, max_leak=None):
+    """(leaked, points, capped) of tile t's distinct valid own points on the grid at `path`,
+    voting with the MST's guide normals (fitted once per tile by estimate). With `max_leak` the
+    count stops once above that share of the tile's points (capped: then only a lower bound)."""
+    g = np.load(os.path.join(scratch, "guides", f"t{t}.npz"))
+    n = len(g["p"])
+    limit = int(max_leak * n) + 1 if max_leak is not None else 0
+    leaked = _core()._sides_leaked(g["p"], g["g"], _grid(frame, path), threads, limit)
+    return leaked, n, limit > 0 and leaked >= limit
 
 
 def orient_tile(t, boxes, decisions, options, orient, chunk_rows, scratch, frame, path, base):
     """MST: tile t and its halo oriented, voting on the whole cloud's grid at `path` (no flood
     fill when None: the single process found none watertight either); the halo's normals go to
     the tile's overlap file for the reconciliation between tiles."""
-    pts, rows, owner, own, normals = _own_valid(t, boxes, decisions["halo"], scratch)
-    normals = _core()._orient_mst_tile(pts, normals, orient["k"], options["threads"],
-                                       _grid(frame, path), path is not None)
+    pts, rows, owner, own = load_tile(t, boxes, decisions["halo"], scratch)
+    raw = np.load(os.path.join(scratch, "raw", f"t{t}.npz"))
+    normals = _core()._orient_mst_tile(pts, raw["normals"], orient["k"], options["threads"],
+                                       _grid(frame, path), path is not None, raw["guides"])
     _save(os.path.join(scratch, "halo", f"t{t}.npz"), rows=rows[own:], owner=owner[own:],
           normals=normals[own:].astype(np.float32))
     _save(os.path.join(scratch, "own", f"t{t}.npz"), rows=rows[:own],

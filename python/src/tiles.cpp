@@ -235,12 +235,16 @@ void register_tiles(py::module_& m) {
       "The voxel index of each point in a grid frame from _sides_grid_frame.");
   m.def(
       "_fill_sides_grid",
-      [](const py::dict& grid, const std::vector<int64_t>& occupied) {
+      [](const py::dict& grid, const py::handle& occupied) {
         SidesGrid g = grid_from_dict(grid, false);
         g.cell.assign(size_t(g.dims[0] * g.dims[1] * g.dims[2]), 0);
+        const auto occ =
+            py::array_t<int64_t, py::array::c_style | py::array::forcecast>::ensure(occupied);
+        if (!occ || occ.ndim() != 1)
+          throw InvalidOptions("sides grid: occupied must be a 1-D array of voxel indices");
         {
           py::gil_scoped_release release;
-          fill_sides_grid(g, occupied);
+          fill_sides_grid(g, std::vector<int64_t>(occ.data(), occ.data() + occ.size()));
         }
         return py::array_t<uint8_t>(py::ssize_t(g.cell.size()), g.cell.data());
       },
@@ -256,26 +260,35 @@ void register_tiles(py::module_& m) {
           py::gil_scoped_release release;
           g = mst_guides(p, n, own, mst_options(k, threads, py::none(), true));
         }
-        return py::make_tuple(to_numpy(g.points), to_numpy(g.guides));
+        return py::make_tuple(to_numpy(g.points), to_numpy(g.guides),
+                              py::array_t<double>(py::ssize_t(g.nearest.size()), g.nearest.data()),
+                              to_numpy(g.row_guides));
       },
-      "(points, guides) of a tile's distinct valid own points (orient.hpp mst_guides).");
+      "(points, guides, nearest, row_guides) of a tile: its distinct valid own points, their "
+      "guides and nearest distances, and every row's guide (orient.hpp mst_guides).");
   m.def(
       "_sides_leaked",
-      [](const py::handle& points, const py::handle& guides, const py::dict& grid, int threads) {
+      [](const py::handle& points, const py::handle& guides, const py::dict& grid, int threads,
+         int64_t limit) {
         const Points p = to_points(points, "points");
         const Normals g = to_points(guides, "guides");
         const SidesGrid grid_cells = grid_from_dict(grid, true);
         py::gil_scoped_release release;
-        return sides_leaked(p, g, grid_cells, threads);
+        return sides_leaked(p, g, grid_cells, threads, limit);
       },
-      "How many points leak on a grid with cells (orient.hpp sides_leaked).");
+      "How many points leak on a grid with cells, counted until `limit` when > 0 (orient.hpp "
+      "sides_leaked).",
+      py::arg("points"), py::arg("guides"), py::arg("grid"), py::arg("threads"),
+      py::arg("limit") = 0);
   m.def(
       "_orient_mst_tile",
       [](const py::handle& points, const py::handle& normals, int k, int threads,
-         const py::object& grid, bool inside_outside) {
+         const py::object& grid, bool inside_outside, const py::object& guides) {
         const Points p = to_points(points, "points");
         Normals n = to_points(normals, "normals");
-        const OrientOptions o = mst_options(k, threads, grid, inside_outside);
+        OrientOptions o = mst_options(k, threads, grid, inside_outside);
+        if (!guides.is_none())
+          o.guides = std::make_shared<const Normals>(to_points(guides, "guides"));
         {
           py::gil_scoped_release release;
           orient_normals(p, n, o);
@@ -283,7 +296,10 @@ void register_tiles(py::module_& m) {
         return to_numpy(n);
       },
       "A tile's normals oriented by the MST, voting on the whole cloud's grid (dict with cell) "
-      "when given, with no flood fill when inside_outside is False.");
+      "when given, with no flood fill when inside_outside is False, on every row's guide from "
+      "_mst_guides when given (else fitted here).",
+      py::arg("points"), py::arg("normals"), py::arg("k"), py::arg("threads"), py::arg("grid"),
+      py::arg("inside_outside"), py::arg("guides") = py::none());
   m.def("_estimate_tile", &estimate,
         "One tile (own points then halo, frame units) with the whole cloud's decisions: "
         "(normals, valid, candidate, warnings, k_used, scales_used).");

@@ -357,3 +357,65 @@ TEST(Orient, SharedFloodFillGridGivesEachTileTheWholeCloudsSigns) {
     EXPECT_EQ(differ, 0) << "half " << side;
   }
 }
+
+TEST(Orient, GivenGuidesGiveTheSameMstAsFittedOnes) {
+  // The distributed job fits a tile's guides once (mst_guides) for its leak counts and hands
+  // every row's guide to the tile's MST (options.guides): the normals must be the ones the MST
+  // gives fitting them itself, bit for bit, with exact duplicates and invalid rows in the tile
+  // (row_guides NaN there), and mst_guides' nearest distances must be mst_nearest's.
+  const auto f = fixtures::cube(6000, 0.002, 43);
+  EstimateOptions eo;
+  eo.method = Method::Pca;
+  eo.k = 20;
+  Points p(f.points.rows() + 50, 3);
+  p.topRows(f.points.rows()) = f.points;
+  p.bottomRows(50) = f.points.topRows(50);  // exact duplicates
+  Normals raw = estimate_normals(p, eo).normals;
+  raw.row(7).setZero();  // an invalid normal
+  const int64_t own = 4000;
+  OrientOptions o;
+  const MstGuides g = mst_guides(p, raw, own, o);
+  ASSERT_EQ(g.row_guides.rows(), p.rows());
+  EXPECT_TRUE(std::isnan(g.row_guides(7, 0)));
+  EXPECT_TRUE(std::isnan(g.row_guides(f.points.rows() + 3, 0)));  // a later copy
+  EXPECT_EQ(g.nearest, mst_nearest(p, raw, own, o));
+  Normals fitted = raw;
+  const OrientResult rf = orient_normals(p, fitted, o);
+  OrientOptions given = o;
+  given.guides = std::make_shared<const Normals>(g.row_guides);
+  Normals reused = raw;
+  const OrientResult rg = orient_normals(p, reused, given);
+  EXPECT_EQ(reused, fitted);
+  EXPECT_EQ(rg.flipped, rf.flipped);
+  EXPECT_EQ(rg.unoriented, rf.unoriented);
+  given.guides = std::make_shared<const Normals>(g.row_guides.topRows(10));
+  EXPECT_THROW(orient_normals(p, reused, given), InvalidOptions);
+}
+
+TEST(Orient, SidesLeakedStopsAtItsLimit) {
+  // An open tile's own grid leaks almost everywhere: the count with a limit stops in blocks
+  // once it reaches it (a lower bound >= limit, below the full count here: 30 000 points are
+  // two blocks), and is the full count when the limit is not reached.
+  const auto f = fixtures::cube(60000, 0.002, 47);
+  const double mid = (f.points.col(0).minCoeff() + f.points.col(0).maxCoeff()) / 2;
+  std::vector<Eigen::Index> half;
+  for (Eigen::Index i = 0; i < f.points.rows(); ++i)
+    if (f.points(i, 0) < mid) half.push_back(i);
+  Points p(Eigen::Index(half.size()), 3);
+  for (size_t i = 0; i < half.size(); ++i) p.row(Eigen::Index(i)) = f.points.row(half[i]);
+  EstimateOptions eo;
+  eo.method = Method::Pca;
+  eo.k = 20;
+  const Normals raw = estimate_normals(p, eo).normals;
+  const MstGuides g = mst_guides(p, raw, p.rows(), OrientOptions{});
+  SidesGrid grid =
+      sides_grid_frame(p.colwise().minCoeff(), p.colwise().maxCoeff(),
+                       4 * (p.colwise().maxCoeff() - p.colwise().minCoeff()).maxCoeff() / 200, 2);
+  fill_sides_grid(grid, sides_grid_voxels(grid, g.points));
+  const int64_t full = sides_leaked(g.points, g.guides, grid, 0);
+  ASSERT_GT(full, 20000);  // the open half leaks
+  const int64_t capped = sides_leaked(g.points, g.guides, grid, 0, 1000);
+  EXPECT_GE(capped, 1000);
+  EXPECT_LT(capped, full);
+  EXPECT_EQ(sides_leaked(g.points, g.guides, grid, 0, full + 1), full);
+}

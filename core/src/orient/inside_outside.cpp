@@ -280,6 +280,29 @@ InsideOutside::InsideOutside(const Points& points, const Normals& normals, const
   leak_ = m > 0 ? double(both) / double(m) : 0;
 }
 
+int64_t InsideOutside::count_leaked(const Points& points, const Normals& normals,
+                                    const SidesGrid& grid, int threads, int64_t limit) {
+  const int64_t total = grid.dims[0] * grid.dims[1] * grid.dims[2];
+  if (!(grid.h > 0) || int64_t(grid.cell.size()) != total || total == 0)
+    throw InvalidOptions("orient: the given sides grid does not match its dimensions");
+  const Grid g(grid);
+  const int64_t m = int64_t(points.rows());
+  // Blocks large enough for the threads to share, small enough to stop soon after the limit.
+  const int64_t block = limit > 0 ? 16384 : std::max<int64_t>(m, 1);
+  std::vector<uint8_t> leaked(size_t(std::min(block, m)), 0);
+  int64_t both = 0;
+  for (int64_t start = 0; start < m && (limit <= 0 || both < limit); start += block) {
+    const int64_t n = std::min(block, m - start);
+    parallel_for(n, threads, nullptr, [&](int64_t i) {
+      bool l = false;
+      grid_vote(g, points.row(start + i), normals.row(start + i), &l);
+      leaked[size_t(i)] = l ? 1 : 0;
+    });
+    for (int64_t i = 0; i < n; ++i) both += leaked[size_t(i)];
+  }
+  return both;
+}
+
 InsideOutside::~InsideOutside() = default;
 
 int8_t InsideOutside::vote(const Eigen::RowVector3d& p, const Eigen::RowVector3d& n) const {

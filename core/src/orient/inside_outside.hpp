@@ -60,6 +60,10 @@ class InsideOutside {
   /// cloud's, for one of its tiles: sides_grid.hpp), whatever its leak. Throws InvalidOptions
   /// for a grid whose cells do not match its dimensions.
   InsideOutside(const Points& points, const Normals& normals, const SidesGrid& grid, int threads);
+  /// Only the leak on `grid` of `points` / `normals` (as above), counted in blocks of points
+  /// until it reaches `limit` (> 0; <= 0: all): orient.hpp sides_leaked.
+  static int64_t count_leaked(const Points& points, const Normals& normals, const SidesGrid& grid,
+                              int threads, int64_t limit);
   ~InsideOutside();
   InsideOutside(const InsideOutside&) = delete;
   InsideOutside& operator=(const InsideOutside&) = delete;

@@ -154,6 +154,13 @@ void gather_rows(const Points& points, const Normals& normals, const std::vector
   }
 }
 
+/// OrientOptions::guides: the given guides of the rows `used` replace the first guide.
+void take_guides(const OrientOptions& options, const std::vector<int64_t>& used, Normals& guide) {
+  if (!options.guides) return;
+  for (Eigen::Index i = 0; i < guide.rows(); ++i)
+    guide.row(i) = options.guides->row(Eigen::Index(used[size_t(i)]));
+}
+
 /// The symmetric k-NN graph of the first `k` columns of `knn` (an edge when either point is
 /// among the other's k nearest, self included) as adjacency lists, with the mean and median
 /// distance to the nearest other point.
@@ -213,7 +220,8 @@ double guide_noise(const Points& pts, const Normals& guide, const Adjacency& adj
 }
 
 /// The graph over pts and its scales; smooths `guide` on the way (one neighbour search for
-/// both: the graph takes the first k columns of the guide's guide_k-deep table).
+/// both: the graph takes the first k columns of the guide's guide_k-deep table), unless the
+/// guides were given (OrientOptions::guides: the table keeps its depth, the same graph).
 Graph build_graph(const Points& pts, Normals& guide, const OrientOptions& options) {
   const Eigen::Index m = pts.rows();
   Graph graph;
@@ -230,7 +238,7 @@ Graph build_graph(const Points& pts, Normals& guide, const OrientOptions& option
   IndexMatrix knn;
   tree.knn_all(smooth ? std::max(k, guide_k) : k, knn, nullptr, sub);
   link_neighbours(pts, knn, k, sub.threads, graph);
-  if (smooth) smooth_guide(pts, knn, guide_k, sub, guide);
+  if (smooth && !options.guides) smooth_guide(pts, knn, guide_k, sub, guide);
   graph.noise = guide_noise(pts, guide, graph.adj, sub.threads);
   return graph;
 }
@@ -480,6 +488,7 @@ std::vector<uint8_t> orient_mst(const Points& points, Normals& normals,
   Points pts(m, 3);
   Normals guide(m, 3);
   gather_rows(points, normals, used, pts, guide);
+  take_guides(options, used, guide);
 
   if (options.run.progress) progress.stage("orient: neighbours", 0, 0.3);
   const Graph graph = build_graph(pts, guide, options);
@@ -554,6 +563,9 @@ void check_options(const Points& points, const Normals& normals, const OrientOpt
                          std::to_string(reference.rows()) + " for " +
                          std::to_string(points.rows()) + " points)");
   if (options.run.threads < 0) throw InvalidOptions("orient: threads must be >= 0");
+  if (options.guides && options.guides->rows() != points.rows())
+    throw InvalidOptions("orient: " + std::to_string(options.guides->rows()) +
+                         " guide normals for " + std::to_string(points.rows()) + " points");
 }
 
 /// The rows with a finite point and a valid normal; the others are counted as invalid.
@@ -635,6 +647,7 @@ TileGraph tile_graph(const Points& points, const Normals& normals, int64_t own,
   t.pts.resize(Eigen::Index(t.rows.size()), 3);
   t.guide.resize(Eigen::Index(t.rows.size()), 3);
   gather_rows(points, normals, t.rows, t.pts, t.guide);
+  take_guides(options, t.rows, t.guide);
   t.graph = build_graph(t.pts, t.guide, options);
   return t;
 }
@@ -665,16 +678,23 @@ MstGuides mst_guides(const Points& points, const Normals& normals, int64_t own,
   for (size_t i = 0; i < mine.size(); ++i) {
     out.points.row(Eigen::Index(i)) = t.pts.row(mine[i]);
     out.guides.row(Eigen::Index(i)) = t.guide.row(mine[i]);
+    const double d = mine[i] < Eigen::Index(t.graph.nearest.size())
+                         ? t.graph.nearest[size_t(mine[i])]
+                         : std::numeric_limits<double>::infinity();
+    if (std::isfinite(d)) out.nearest.push_back(d);
   }
+  out.row_guides.setConstant(points.rows(), 3, std::numeric_limits<double>::quiet_NaN());
+  for (size_t i = 0; i < t.rows.size(); ++i)
+    out.row_guides.row(Eigen::Index(t.rows[i])) = t.guide.row(Eigen::Index(i));
   return out;
 }
 
 int64_t sides_leaked(const Points& points, const Normals& guides, const SidesGrid& grid,
-                     int threads) {
+                     int threads, int64_t limit) {
   if (guides.rows() != points.rows())
     throw InvalidOptions("sides_leaked: " + std::to_string(guides.rows()) + " guides for " +
                          std::to_string(points.rows()) + " points");
-  return detail::InsideOutside(points, guides, grid, threads).leaked();
+  return detail::InsideOutside::count_leaked(points, guides, grid, threads, limit);
 }
 
 }  // namespace nhnet

@@ -89,6 +89,11 @@ struct OrientOptions {
   /// the points (sides_grid.hpp): the whole cloud's grid, decided once and handed to each tile
   /// of a distributed run. nullptr = built here, from these points.
   std::shared_ptr<const SidesGrid> sides;
+  /// Mst: each row's guide normal as the MST would fit it (MstGuides::row_guides of the same
+  /// points, normals and options), so that a tile of a distributed run fits its guides once for
+  /// the flood fill's leak count and its MST: the guide's PCA is skipped (the neighbour search
+  /// keeps its depth, so the graph is the same). nullptr = fitted here.
+  std::shared_ptr<const Normals> guides;
   /// Mirror only pairs whose offset along both normals exceeds reflect_noise x the noise (the
   /// median over the points of the median |(p_j - p_i) . n_i| over their k nearest); below that
   /// the mirror mostly reflects noise.
@@ -145,18 +150,27 @@ std::vector<double> mst_nearest(const Points& points, const Normals& normals, in
 
 /// Distributed MST: a tile's distinct valid own points (rows [0, own)) and their guide normals
 /// as the MST builds them over all the rows (OrientOptions::smooth_guide), the normals its flood
-/// fill votes with (sides_leaked).
+/// fill votes with (sides_leaked), from one neighbour search and one fit per tile.
 struct MstGuides {
+  /// The distinct valid own points and their guides.
   Points points;
   Normals guides;
+  /// mst_nearest's distances (the same graph).
+  std::vector<double> nearest;
+  /// Every row's guide (NaN for rows the MST does not take: invalid or a later exact
+  /// duplicate), for OrientOptions::guides.
+  Normals row_guides;
 };
 MstGuides mst_guides(const Points& points, const Normals& normals, int64_t own,
                      const OrientOptions& options);
 
 /// How many of `points` (with their unit `guides`) reach the outside of `grid` on both sides:
 /// summed over the tiles and divided by their count, the leak that decides whether the whole
-/// cloud's candidate grid is watertight (SidesGridPlan::max_leak), as in one process.
+/// cloud's candidate grid is watertight (SidesGridPlan::max_leak), as in one process. With
+/// `limit` > 0 the count stops, in blocks of points, once it reaches `limit`: a count >= limit
+/// says only "at least limit" (an open cloud's grids leak almost everywhere, and a lower bound
+/// already above the limit decides as the full count would).
 int64_t sides_leaked(const Points& points, const Normals& guides, const SidesGrid& grid,
-                     int threads);
+                     int threads, int64_t limit = 0);
 
 }  // namespace nhnet
