@@ -49,6 +49,11 @@ void add_method_options(CLI::App* sub, EstimateArgs& a) {
   sub->add_option("--device", a.device,
                   "NH-Net device: auto | cpu | cuda " + default_note(core.model.device))
       ->type_name("DEV");
+  sub->add_option("--candidate-mix", a.candidate_mix,
+                  "NH-Net: mix the network's normals with the PCA and MFPS candidates (on), or "
+                  "the network's normals as they are, the paper's (off) " +
+                      default_note(a.candidate_mix))
+      ->type_name("on|off");
   sub->add_option("-k,--k", a.k,
                   "PCA neighbourhood size, >= 3 (default: chosen from the noise level)")
       ->type_name("K");
@@ -124,7 +129,8 @@ Setup prepare(const EstimateArgs& a) {
   nhnet::EstimateOptions& opt = st.opt;
   // The default is NH-Net; --model or --device alone ask for it too (and fail loudly if it
   // cannot run instead of falling back).
-  const bool nhnet_asked = !a.model.empty() || a.device != "auto";
+  const bool nhnet_asked =
+      !a.model.empty() || a.device != "auto" || a.candidate_mix != EstimateArgs{}.candidate_mix;
   const std::string method = !a.method.empty() ? a.method
                              : nhnet_asked
                                  ? "nhnet"
@@ -142,8 +148,12 @@ Setup prepare(const EstimateArgs& a) {
   opt.model.device = a.device;
   if (a.device != "auto" && a.device != "cpu" && a.device != "cuda")
     throw nhnet::InvalidOptions("--device must be auto, cpu or cuda, got '" + a.device + "'");
+  if (a.candidate_mix != "on" && a.candidate_mix != "off")
+    throw nhnet::InvalidOptions("--candidate-mix must be on or off, got '" + a.candidate_mix + "'");
+  opt.model.candidate_mix = a.candidate_mix == "on";
   if (opt.method != nhnet::Method::NhNet && nhnet_asked)
-    throw nhnet::InvalidOptions("--model and --device only apply to --method nhnet");
+    throw nhnet::InvalidOptions(
+        "--model, --device and --candidate-mix only apply to --method nhnet");
   st.orient.mode = nhnet::kDefaultOrientMode;
   if (!a.orient.empty()) st.orient = parse_orient(a.orient);
   st.orient.run.threads = opt.run.threads;

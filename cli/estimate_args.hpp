@@ -32,8 +32,10 @@ struct EstimateArgs {
   std::string seed = std::to_string(nhnet::EstimateOptions{}.mfps.seed);
   std::string model;                                           ///< empty = the shipped model
   std::string device = nhnet::EstimateOptions{}.model.device;  ///< NH-Net device
-  bool stream = false;                                         ///< --stream: out of core, XYZ input
-  std::string temp_dir;                                        ///< --temp-dir (stream)
+  /// NH-Net's candidate mix: on | off
+  std::string candidate_mix = nhnet::EstimateOptions{}.model.candidate_mix ? "on" : "off";
+  bool stream = false;   ///< --stream: out of core, XYZ input
+  std::string temp_dir;  ///< --temp-dir (stream)
   OutputFlags output;
 
   bool batch() const { return !out_dir.empty(); }

@@ -1,4 +1,4 @@
-"""The C++ inference (nhnet-cli estimate --method nhnet --model) runs a model of the "fit"
+"""The C++ inference (nhnet-cli estimate --method nhnet --model --candidate-mix off) runs a model of the "fit"
 architecture (training/nhnet_training/model.py NhNetFit) without any core change: same
 descriptor in, unit canonical normal out; its normals equal the Python model's on the core's
 descriptors (nhnet.descriptors). Needs the build: nhnet-cli with libtorch (scripts/build.sh)
@@ -33,7 +33,7 @@ def test_cli_runs_the_fit_architecture(tmp_path):
     np.savetxt(tmp_path / "p.xyz", pts)
     r = subprocess.run([str(CLI), "estimate", str(tmp_path / "p.xyz"), str(tmp_path / "o.xyzn"),
                         "--method", "nhnet", "--model", str(tmp_path / "fit.pt"), "--orient", "none",
-                        "--threads", "1"], capture_output=True, text=True)
+                        "--candidate-mix", "off", "--threads", "1"], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     cli = np.loadtxt(tmp_path / "o.xyzn")[:, 3:6]
     d = nhnet.descriptors(pts, threads=1)
