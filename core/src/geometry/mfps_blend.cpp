@@ -46,7 +46,17 @@ double line_angle(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   return std::acos(std::min(1.0, std::abs(a.dot(b))));
 }
 
-/// 1 - mean |n_i . n_j| over the first `k` neighbours of row i (self included).
+/// Keeps the features and the normals before the blend in `res` (for fitting the blend).
+void record_features(const std::vector<BlendFeatures>& features, MfpsResult& res) {
+  res.unblended_normals = res.normals;
+  res.blend_features.resize(Eigen::Index(features.size()), kMfpsBlendFeatures);
+  for (size_t t = 0; t < features.size(); ++t)
+    for (int q = 0; q < kMfpsBlendFeatures; ++q)
+      res.blend_features(Eigen::Index(t), q) = features[t][size_t(q)];
+}
+
+}  // namespace
+
 double inconsistency(const Normals& normals, const IndexMatrix& knn, Eigen::Index i, int k) {
   const int kk = int(std::min<Eigen::Index>(k, knn.cols()));
   const Eigen::Vector3d ni = normals.row(i).transpose();
@@ -60,17 +70,6 @@ double inconsistency(const Normals& normals, const IndexMatrix& knn, Eigen::Inde
   }
   return used ? 1.0 - sum / used : 0.0;
 }
-
-/// Keeps the features and the normals before the blend in `res` (for fitting the blend).
-void record_features(const std::vector<BlendFeatures>& features, MfpsResult& res) {
-  res.unblended_normals = res.normals;
-  res.blend_features.resize(Eigen::Index(features.size()), kMfpsBlendFeatures);
-  for (size_t t = 0; t < features.size(); ++t)
-    for (int q = 0; q < kMfpsBlendFeatures; ++q)
-      res.blend_features(Eigen::Index(t), q) = features[t][size_t(q)];
-}
-
-}  // namespace
 
 Eigen::Vector3d slerp_towards(const Eigen::Vector3d& a, Eigen::Vector3d b, double t) {
   if (b.dot(a) < 0) b = -b;

@@ -18,6 +18,10 @@ namespace nhnet::detail {
 /// The features listed at kMfpsBlendFeatures (mfps.hpp), of one candidate.
 using BlendFeatures = std::array<double, kMfpsBlendFeatures>;
 
+/// 1 - mean |n_i . n_j| over the first `k` neighbours of row i of `knn` (self included) whose
+/// normal is finite; 0 when none is. Also a feature of NH-Net's candidate mix.
+double inconsistency(const Normals& normals, const IndexMatrix& knn, Eigen::Index i, int k);
+
 /// Rotates unit `a` towards unit `b` (sign-aligned) by fraction t of the angle between them.
 /// Also the rotation of the two-face posterior (mfps.cpp).
 Eigen::Vector3d slerp_towards(const Eigen::Vector3d& a, Eigen::Vector3d b, double t);

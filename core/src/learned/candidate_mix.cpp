@@ -29,20 +29,6 @@ double line_angle(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   return std::atan2(a.cross(b).norm(), std::abs(a.dot(b)));
 }
 
-/// 1 - mean |n_i . n_j| over the first kMixNeighbours of row i whose normal is finite.
-double inconsistency(const Normals& n, const IndexMatrix& knn, Eigen::Index i) {
-  const Eigen::Vector3d ni = n.row(i).transpose();
-  double sum = 0;
-  int used = 0;
-  for (int t = 0; t < kMixNeighbours; ++t) {
-    const Eigen::Vector3d nj = n.row(knn(i, t)).transpose();
-    if (!nj.allFinite()) continue;
-    sum += std::abs(ni.dot(nj));
-    ++used;
-  }
-  return used ? 1.0 - sum / used : 0.0;
-}
-
 /// Softmax weights of the candidates for standardised-by-the-fit features `f`.
 std::array<double, kMixCandidates> mix_weights(const Features& f) {
   std::array<double, kMixHidden> h1{}, h2{};
@@ -96,9 +82,9 @@ Eigen::Vector3d mix_row(const CandidateMixInput& in, const Normals& bl, Eigen::I
                    un == pca ? 0.0 : 1.0,
                    std::log(std::max(in.noise_ratio, 1e-4)),
                    std::sqrt(std::clamp((*in.variation)[i], 0.0, 1.0)),
-                   inconsistency(*in.pca, *in.knn, i),
-                   inconsistency(bl, *in.knn, i),
-                   inconsistency(*in.mfps, *in.knn, i)};
+                   detail::inconsistency(*in.pca, *in.knn, i, kMixNeighbours),
+                   detail::inconsistency(bl, *in.knn, i, kMixNeighbours),
+                   detail::inconsistency(*in.mfps, *in.knn, i, kMixNeighbours)};
   const auto weights = mix_weights(f);
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   for (int c = 0; c < kMixCandidates; ++c)
