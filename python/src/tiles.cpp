@@ -197,20 +197,6 @@ void register_tiles(py::module_& m) {
       "_variation_threshold", [](const Eigen::VectorXd& v) { return variation_threshold(v); },
       "MFPS's candidate threshold from surface variations.");
   m.def(
-      "_mst_nearest",
-      [](const py::handle& points, const py::handle& normals, int64_t own, int k, int threads) {
-        const Points p = to_points(points, "points");
-        const Normals n = to_points(normals, "normals");
-        std::vector<double> d;
-        {
-          py::gil_scoped_release release;
-          d = mst_nearest(p, n, own, mst_options(k, threads, py::none(), true));
-        }
-        return py::array_t<double>(py::ssize_t(d.size()), d.data());
-      },
-      "Nearest-point distances of a tile's distinct valid own points in the MST graph "
-      "(orient.hpp mst_nearest).");
-  m.def(
       "_sides_grid_plan",
       [](const py::handle& lo, const py::handle& hi, double spacing, double typical) {
         const SidesGridPlan p = sides_grid_plan(row3(lo, "lo"), row3(hi, "hi"), spacing, typical);

@@ -143,6 +143,21 @@ Grid build_grid(const Points& pts, double h, int dilation) {
   return g;
 }
 
+/// Every point's vote on `g` into `votes` (m entries); returns how many points leaked.
+int64_t vote_all(const Grid& g, const Points& points, const Normals& normals, int threads,
+                 std::vector<int8_t>& votes) {
+  const Eigen::Index m = points.rows();
+  std::vector<uint8_t> leaked(static_cast<size_t>(m), 0);
+  parallel_for(m, threads, nullptr, [&](int64_t i) {
+    bool l = false;
+    votes[size_t(i)] = grid_vote(g, points.row(i), normals.row(i), &l);
+    leaked[size_t(i)] = l ? 1 : 0;
+  });
+  int64_t both = 0;
+  for (const uint8_t l : leaked) both += l;
+  return both;
+}
+
 }  // namespace
 
 // The candidates in the order tried: voxel_spacings x spacing (at least extent / max_side,
@@ -241,16 +256,8 @@ InsideOutside::InsideOutside(const Points& points, const Normals& normals, doubl
   for (size_t c = 0; c < plan.h.size(); ++c) {
     auto g = std::make_unique<Grid>(build_grid(points, plan.h[c], plan.dilation[c]));
     ++grids_built_;
-    std::vector<uint8_t> leaked(static_cast<size_t>(m), 0);
-    parallel_for(m, threads, nullptr, [&](int64_t i) {
-      bool l = false;
-      votes[size_t(i)] = grid_vote(*g, points.row(i), normals.row(i), &l);
-      leaked[size_t(i)] = l ? 1 : 0;
-    });
-    int64_t both = 0;
-    for (const uint8_t l : leaked) both += l;
-    leaked_ = both;
-    leak_ = double(both) / double(m);
+    leaked_ = vote_all(*g, points, normals, threads, votes);
+    leak_ = double(leaked_) / double(m);
     if (leak_ < plan.max_leak) {
       votes_.swap(votes);
       grid_ = std::move(g);
@@ -268,16 +275,8 @@ InsideOutside::InsideOutside(const Points& points, const Normals& normals, const
     throw InvalidOptions("orient: the given sides grid does not match its dimensions");
   grid_ = std::make_unique<Grid>(grid);
   grids_built_ = 0;
-  std::vector<uint8_t> leaked(static_cast<size_t>(m), 0);
-  parallel_for(m, threads, nullptr, [&](int64_t i) {
-    bool l = false;
-    votes_[size_t(i)] = grid_vote(*grid_, points.row(i), normals.row(i), &l);
-    leaked[size_t(i)] = l ? 1 : 0;
-  });
-  int64_t both = 0;
-  for (const uint8_t l : leaked) both += l;
-  leaked_ = both;
-  leak_ = m > 0 ? double(both) / double(m) : 0;
+  leaked_ = vote_all(*grid_, points, normals, threads, votes_);
+  leak_ = m > 0 ? double(leaked_) / double(m) : 0;
 }
 
 int64_t InsideOutside::count_leaked(const Points& points, const Normals& normals,
