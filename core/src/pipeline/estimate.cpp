@@ -284,7 +284,7 @@ Normals mfps_stage(const Points& pts, const IndexMatrix& knn, const PcaResult& p
       residual_bandwidth(pts, knn, in.spacing, bo, detail::narrow(options.run, 0.45, 0.55));
   MfpsOptions mo = options.mfps;
   const bool recorded = mo.record_blend_features;
-  mo.record_blend_features = recorded || blend_weight;
+  mo.keep_blend_weights = mo.keep_blend_weights || blend_weight != nullptr;  // weights, no copies
   mo.scales = in.choice.scales;
   for (int& s : mo.scales) s = int(std::min<Eigen::Index>(s, m));
   const MfpsResult mr = mfps_normals(pts, knn, 2.0 * bw, fd.candidate, pca.normals, mo,
