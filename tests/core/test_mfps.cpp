@@ -200,3 +200,45 @@ TEST(Mfps, PcaBlendLowersRmsAtHighNoise) {
           angle_deg(blended.normals.row(i).transpose(), plain.normals.row(i).transpose()) > 1e-9;
   EXPECT_EQ(moved, 0);
 }
+
+TEST(Mfps, KeepBlendWeightsKeepsTheWeightsAlone) {
+  // NH-Net's candidate mix needs MFPS's blend weights, not the features or the N x 3 copy of the
+  // unblended normals that record_blend_features adds (about 24 MB per million points).
+  const double noise = 0.006 * 2 * std::sqrt(3.0);
+  const auto f = fixtures::cube(6000, noise, 7);
+  const IndexMatrix knn = fixtures::knn_table(f.points, 60);
+  const PcaResult pca = pca_normals(f.points, knn, PcaOptions{30});
+  const FeatureDetection fd = detect_feature_candidates(pca.variation);
+  BandwidthOptions bo;
+  bo.k_patch = 30;
+  bo.k_average = 60;
+  const Eigen::VectorXd sigma = 2.0 * residual_bandwidth(f.points, knn, std::sqrt(24.0 / 6000), bo);
+  auto run = [&](bool pca_blend, bool record, bool keep) {
+    MfpsOptions o;
+    o.scales = {20, 40, 60};
+    o.pca_blend = pca_blend;
+    o.record_blend_features = record;
+    o.keep_blend_weights = keep;
+    return mfps_normals(f.points, knn, sigma, fd.candidate, pca.normals, o);
+  };
+  const MfpsResult recorded = run(true, true, false);
+  ASSERT_FALSE(recorded.blend_rows.empty());
+  ASSERT_EQ(recorded.unblended_normals.rows(), f.points.rows());
+  for (const bool pca_blend : {true, false}) {
+    const MfpsResult kept = run(pca_blend, false, true);
+    const MfpsResult plain = run(pca_blend, false, false);
+    // The same rows and weights as recorded (the weights come from the normals before the
+    // blend, so whether it is applied does not change them) and nothing else kept.
+    EXPECT_EQ(kept.blend_rows, recorded.blend_rows) << pca_blend;
+    EXPECT_EQ(kept.blend_weights, recorded.blend_weights) << pca_blend;
+    EXPECT_EQ(kept.unblended_normals.size(), 0) << pca_blend;
+    EXPECT_EQ(kept.blend_features.size(), 0) << pca_blend;
+    EXPECT_TRUE(plain.blend_rows.empty() && plain.blend_weights.empty()) << pca_blend;
+    // Keeping the weights changes no normal.
+    EXPECT_EQ((kept.normals - plain.normals).cwiseAbs().maxCoeff(), 0.0) << pca_blend;
+  }
+  for (const double w : recorded.blend_weights) {
+    EXPECT_GE(w, 0.0);
+    EXPECT_LE(w, 1.0);
+  }
+}

@@ -491,12 +491,17 @@ detail::TwoFaceChoice two_face_choice(const Inputs& in, const PatchPlanes& plane
   return ch;
 }
 
+/// Whether the blend's features and weights are computed: to apply the blend or to report it.
+bool wants_blend(const MfpsOptions& o) {
+  return o.pca_blend || o.record_blend_features || o.keep_blend_weights;
+}
+
 /// Every candidate's normal and scale: its winner's plane (the paper's argmax), moved towards
 /// its rival's by the two-face posterior where it has one; collects the blend features.
 void choose_normals(const Inputs& in, const Scales& scales, const PatchPlanes& planes,
                     const std::vector<int32_t>& cand_id, const Selection& sel, MfpsResult& res,
                     detail::BlendCandidates& blend) {
-  const bool want_features = in.options.pca_blend || in.options.record_blend_features;
+  const bool want_features = wants_blend(in.options);
   for (Eigen::Index i = 0; i < in.points.rows(); ++i) {
     const int32_t c = cand_id[size_t(i)];
     if (c < 0) continue;
@@ -547,7 +552,7 @@ MfpsResult mfps_normals(const Points& points, const IndexMatrix& knn, const Eige
   choose_normals(in, scales, planes, cand_id, sel, res, blend);
 
   // Not the paper's: the PCA blend (mfps_blend.cpp).
-  if (options.pca_blend || options.record_blend_features)
+  if (wants_blend(options))
     detail::blend_towards_pca(std::move(blend), knn, base_normals, options, res);
   if (run.progress) {
     progress.report(1.0);

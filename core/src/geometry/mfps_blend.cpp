@@ -121,8 +121,10 @@ void blend_towards_pca(BlendCandidates candidates, const IndexMatrix& knn,
           slerp_towards(res.normals.row(i).transpose(), base_normals.row(i).transpose(), weights[t])
               .transpose();
     }
-  if (options.record_blend_features) res.blend_weights = std::move(weights);
-  if (options.record_blend_features) res.blend_rows = std::move(candidates.rows);
+  if (options.record_blend_features || options.keep_blend_weights) {
+    res.blend_weights = std::move(weights);
+    res.blend_rows = std::move(candidates.rows);
+  }
 }
 
 }  // namespace nhnet::detail

@@ -57,8 +57,9 @@ struct BlendCandidates {
 BlendFeatures blend_features(const TwoFaceChoice& choice, const Eigen::Vector3d& pca, double sigma);
 
 /// Completes the features (8, 9) from the normals in `res` before any blending, records them
-/// (options.record_blend_features) and, with options.pca_blend, rotates each candidate's normal
-/// towards its PCA normal (`base_normals`) by the fitted weight.
+/// (options.record_blend_features) or keeps the weights alone (options.keep_blend_weights) and,
+/// with options.pca_blend, rotates each candidate's normal towards its PCA normal
+/// (`base_normals`) by the fitted weight.
 void blend_towards_pca(BlendCandidates candidates, const IndexMatrix& knn,
                        const Normals& base_normals, const MfpsOptions& options, MfpsResult& res);
 

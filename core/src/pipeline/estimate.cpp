@@ -150,18 +150,29 @@ Canonical canonical_points(const Points& points, std::vector<std::string>& warni
   return c;
 }
 
+namespace {
+
+/// Calls copy(i, first) for every row i of `copies` (Canonical::copies) that duplicates an
+/// earlier row `first`: what each output does so that exact copies share their first's result.
+template <class Copy>
+void copy_to_duplicates(const std::vector<int64_t>& copies, Copy&& copy) {
+  for (size_t i = 0; i < copies.size(); ++i) {
+    const int64_t first = copies[i];
+    if (first >= 0 && first != int64_t(i)) copy(Eigen::Index(i), Eigen::Index(first));
+  }
+}
+
+}  // namespace
+
 void finish_result(EstimateResult& res, const std::vector<int64_t>& copies, size_t finite_count) {
   const Eigen::Index n = res.normals.rows();
   const bool flags = res.candidate.size() == size_t(n);
-  for (Eigen::Index i = 0; i < n; ++i) {
-    const int64_t first = copies[size_t(i)];
-    if (first >= 0 && first != i) {
-      res.normals.row(i) = res.normals.row(first);
-      res.valid[size_t(i)] = res.valid[size_t(first)];
-      res.curvature[i] = res.curvature[first];
-      if (flags) res.candidate[size_t(i)] = res.candidate[size_t(first)];
-    }
-  }
+  copy_to_duplicates(copies, [&](Eigen::Index i, Eigen::Index first) {
+    res.normals.row(i) = res.normals.row(first);
+    res.valid[size_t(i)] = res.valid[size_t(first)];
+    res.curvature[i] = res.curvature[first];
+    if (flags) res.candidate[size_t(i)] = res.candidate[size_t(first)];
+  });
   res.failed = int64_t(std::count(res.valid.begin(), res.valid.end(), uint8_t(0)));
   const int64_t nonfinite = n - int64_t(finite_count);
   if (res.failed > nonfinite)
@@ -284,7 +295,7 @@ Normals mfps_stage(const Points& pts, const IndexMatrix& knn, const PcaResult& p
       residual_bandwidth(pts, knn, in.spacing, bo, detail::narrow(options.run, 0.45, 0.55));
   MfpsOptions mo = options.mfps;
   const bool recorded = mo.record_blend_features;
-  mo.record_blend_features = recorded || blend_weight;
+  mo.keep_blend_weights = mo.keep_blend_weights || blend_weight != nullptr;  // weights, no copies
   mo.scales = in.choice.scales;
   for (int& s : mo.scales) s = int(std::min<Eigen::Index>(s, m));
   const MfpsResult mr = mfps_normals(pts, knn, 2.0 * bw, fd.candidate, pca.normals, mo,
@@ -330,13 +341,10 @@ void scatter_side(const Normals& pca, const Eigen::VectorXd& weight, const detai
     if (pca.row(i).allFinite()) side.pca.row(row) = pca.row(i).normalized();  // as scatter()
     if (weight.size() == pca.rows()) side.blend_weight[row] = weight[i];
   }
-  for (Eigen::Index i = 0; i < n; ++i) {
-    const int64_t first = canon.copies[size_t(i)];
-    if (first >= 0 && first != i) {
-      side.pca.row(i) = side.pca.row(first);
-      side.blend_weight[i] = side.blend_weight[first];
-    }
-  }
+  detail::copy_to_duplicates(canon.copies, [&](Eigen::Index i, Eigen::Index first) {
+    side.pca.row(i) = side.pca.row(first);
+    side.blend_weight[i] = side.blend_weight[first];
+  });
 }
 
 /// Unit normals and curvatures of the canonical points back to their input rows.

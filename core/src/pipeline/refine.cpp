@@ -6,6 +6,7 @@
 #include "nhnet/learned/candidate_mix.hpp"
 #include "pipeline/estimator.hpp"
 #include "util/parallel.hpp"
+#include "util/shared_setting.hpp"
 
 #include <algorithm>
 #include <limits>
@@ -24,30 +25,30 @@ std::shared_ptr<const NhNetModel> model_for(const ModelOptions& options, int thr
 
 namespace {
 
-/// While alive, glibc's malloc serves every size from its heap and keeps freed memory there: the
+/// While held, glibc's malloc serves every size from its heap and keeps freed memory there: the
 /// network's per-batch activations (about 230 MB at 4096 points) are otherwise mmap'ed, faulted
 /// in and unmapped anew for every batch, which cost as much CPU time as the convolutions
-/// (docs/design/decisions.md#nh-net-activations-kept-in-the-heap). On destruction glibc's
-/// defaults come back (mmap above the threshold, trim above 128 KiB) and the free heap is
-/// returned to the system. Other C libraries: no effect.
-class HeapForBatches {
- public:
-  HeapForBatches() {
+/// (docs/design/decisions.md#nh-net-activations-kept-in-the-heap). When the last holder goes,
+/// glibc's defaults come back (mmap above the threshold, trim above 128 KiB) and the free heap is
+/// returned to the system; estimates running at once in one process share the settings (the
+/// first applies them, the last restores them). Other C libraries: no effect.
+detail::SharedSetting& heap_for_batches() {
+  static detail::SharedSetting setting(
+      [] {
 #if defined(__GLIBC__)
-    mallopt(M_MMAP_MAX, 0);
-    mallopt(M_TRIM_THRESHOLD, std::numeric_limits<int>::max());
+        mallopt(M_MMAP_MAX, 0);
+        mallopt(M_TRIM_THRESHOLD, std::numeric_limits<int>::max());
 #endif
-  }
-  ~HeapForBatches() {
+      },
+      [] {
 #if defined(__GLIBC__)
-    mallopt(M_MMAP_MAX, 65536);             // glibc's DEFAULT_MMAP_MAX
-    mallopt(M_TRIM_THRESHOLD, 128 * 1024);  // glibc's DEFAULT_TRIM_THRESHOLD
-    malloc_trim(0);
+        mallopt(M_MMAP_MAX, 65536);             // glibc's DEFAULT_MMAP_MAX
+        mallopt(M_TRIM_THRESHOLD, 128 * 1024);  // glibc's DEFAULT_TRIM_THRESHOLD
+        malloc_trim(0);
 #endif
-  }
-  HeapForBatches(const HeapForBatches&) = delete;
-  HeapForBatches& operator=(const HeapForBatches&) = delete;
-};
+      });
+  return setting;
+}
 
 /// The progress of block b (len of m points) within the last 30 % of the run.
 ProgressCallback block_progress(const ProgressCallback& cb, Eigen::Index b, Eigen::Index len,
@@ -139,7 +140,7 @@ EstimateResult estimate_nhnet(const Points& points, const EstimateOptions& optio
   int64_t kept = 0;
   RunContext run;
   run.threads = options.run.threads;
-  const HeapForBatches heap;
+  const detail::SharedSetting::Hold heap(heap_for_batches());
   for (Eigen::Index b = 0; b < m; b += block) {
     const Eigen::Index len = std::min(block, m - b);
     run.progress = block_progress(cb, b, len, m);

@@ -80,6 +80,9 @@ struct MfpsOptions {
   bool pca_blend = true;
   /// Keep the blend features and the normals before the blend in the result (for fitting).
   bool record_blend_features = false;
+  /// Keep only each candidate's blend weight and row (blend_weights, blend_rows), without the
+  /// features and the N x 3 copy of the normals that record_blend_features also keeps.
+  bool keep_blend_weights = false;
   /// Seed of the random samples; results do not depend on the thread count.
   uint64_t seed = 1;
 
@@ -113,7 +116,7 @@ struct MfpsResult {
   /// With record_blend_features: the rows (of `points`) that have blend features, their
   /// features (rows x kMfpsBlendFeatures), every point's normal before the blend (N x 3) and
   /// each row's blend weight (the fraction of the way to its PCA normal; applied only with
-  /// pca_blend).
+  /// pca_blend). With keep_blend_weights alone: the rows and weights only (the others empty).
   std::vector<int64_t> blend_rows;
   Eigen::MatrixXd blend_features;
   Normals unblended_normals;
