@@ -54,6 +54,11 @@ void add_method_options(CLI::App* sub, EstimateArgs& a) {
                   "the network's normals as they are, the paper's (off) " +
                       default_note(a.candidate_mix))
       ->type_name("on|off");
+  sub->add_option("--refine", a.refine,
+                  "NH-Net with the candidate mix: run the network on every point (all), or only "
+                  "where MFPS moved the PCA normal near features (moved: faster) " +
+                      default_note(a.refine))
+      ->type_name("all|moved");
   sub->add_option("-k,--k", a.k,
                   "PCA neighbourhood size, >= 3 (default: chosen from the noise level)")
       ->type_name("K");
@@ -129,8 +134,9 @@ Setup prepare(const EstimateArgs& a) {
   nhnet::EstimateOptions& opt = st.opt;
   // The default is NH-Net; --model or --device alone ask for it too (and fail loudly if it
   // cannot run instead of falling back).
-  const bool nhnet_asked =
-      !a.model.empty() || a.device != "auto" || a.candidate_mix != EstimateArgs{}.candidate_mix;
+  const bool nhnet_asked = !a.model.empty() || a.device != "auto" ||
+                           a.candidate_mix != EstimateArgs{}.candidate_mix ||
+                           a.refine != EstimateArgs{}.refine;
   const std::string method = !a.method.empty() ? a.method
                              : nhnet_asked
                                  ? "nhnet"
@@ -151,9 +157,12 @@ Setup prepare(const EstimateArgs& a) {
   if (a.candidate_mix != "on" && a.candidate_mix != "off")
     throw nhnet::InvalidOptions("--candidate-mix must be on or off, got '" + a.candidate_mix + "'");
   opt.model.candidate_mix = a.candidate_mix == "on";
+  if (a.refine != "all" && a.refine != "moved")
+    throw nhnet::InvalidOptions("--refine must be all or moved, got '" + a.refine + "'");
+  opt.model.refine_all = a.refine == "all";
   if (opt.method != nhnet::Method::NhNet && nhnet_asked)
     throw nhnet::InvalidOptions(
-        "--model, --device and --candidate-mix only apply to --method nhnet");
+        "--model, --device, --candidate-mix and --refine only apply to --method nhnet");
   st.orient.mode = nhnet::kDefaultOrientMode;
   if (!a.orient.empty()) st.orient = parse_orient(a.orient);
   st.orient.run.threads = opt.run.threads;

@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-FEATURES, CANDIDATES, HIDDEN, NEIGHBOURS = 11, 4, 32, 16
+FEATURES, CANDIDATES, HIDDEN, NEIGHBOURS = 16, 6, 32, 16
 LEVEL_CYCLE = [(0.0, "uniform"), (0.1, "uniform"), (0.3, "uniform"), (0.6, "uniform"),
                (1.2, "uniform"), (0.0, "stripes"), (0.3, "gradient"), (0.5, "uniform"),
                (0.05, "uniform"), (0.2, "uniform"), (0.4, "uniform"), (0.0, "gradient"),
@@ -59,6 +59,54 @@ def slerp(a, b, w):
     return unit(out)
 
 
+ANALYTIC = [(shape, 20000, level) for shape in ("sphere", "ellipsoid", "torus")
+            for level in (0.0, 0.3, 0.6, 1.2)] + [("sphere", 5000, 0.6), ("ellipsoid", 5000, 0.3)]
+
+
+def analytic_surface(shape: str, n: int, rng):
+    """n points uniform by area on a smooth closed shape, and their exact unit normals."""
+    pts, nrm = np.zeros((0, 3)), np.zeros((0, 3))
+    while len(pts) < n:
+        if shape == "torus":  # R = 1, r = 0.35; area density (R + r cos v) by rejection
+            u, v = rng.uniform(0, 2 * np.pi, (2, 4 * n))
+            keep = rng.uniform(0, 1.35, 4 * n) < 1 + 0.35 * np.cos(v)
+            u, v = u[keep], v[keep]
+            c = np.stack([np.cos(u), np.sin(u), 0 * u], 1)
+            q = np.stack([np.cos(v) * np.cos(u), np.cos(v) * np.sin(u), np.sin(v)], 1)
+            p, m = c + 0.35 * q, q
+        else:  # sphere, or ellipsoid (1, 0.6, 0.35) by rejection on the sphere's map
+            axes = np.array([1.0, 1.0, 1.0] if shape == "sphere" else [1.0, 0.6, 0.35])
+            d = unit(rng.normal(size=(4 * n, 3)))
+            g = d / axes  # normal direction of the mapped point, unnormalised
+            area = np.linalg.norm(g, axis=1) * np.prod(axes)
+            keep = rng.uniform(0, area.max(), 4 * n) < area
+            p, m = d[keep] * axes, unit(g[keep])
+        pts, nrm = np.vstack([pts, p]), np.vstack([nrm, m])
+    return pts[:n], nrm[:n]
+
+
+def cmd_analytic(a) -> int:
+    """Smooth closed shapes for the mix's training data (split "analytic"): the mesh models are
+    organic but thin-limbed, and a mix fitted on them alone under-trusts the network on broad
+    smooth surfaces, where its denoising beats every fit."""
+    out = Path(a.out) / "analytic"
+    out.mkdir(parents=True, exist_ok=True)
+    clouds = []
+    for i, (shape, n, level) in enumerate(ANALYTIC):
+        rng = np.random.default_rng(100 + i)
+        pts, nrm = analytic_surface(shape, n, rng)
+        diag = np.linalg.norm(pts.max(0) - pts.min(0))
+        pts = pts + rng.normal(scale=level / 100 * diag, size=pts.shape)
+        name = f"{shape}_{n}_noise{level:g}"
+        np.savetxt(out / f"{name}.xyz", pts, fmt="%.8f")
+        np.savetxt(out / f"{name}.normals", nrm, fmt="%.8f")
+        clouds.append(dict(name=name, model=shape, category="Analytic", noise_percent=level,
+                           variant="uniform", files=[f"{name}.xyz", f"{name}.normals"]))
+    (out / "index.json").write_text(json.dumps({"clouds": clouds}, indent=1))
+    print(f"{len(clouds)} clouds in {out}")
+    return 0
+
+
 def pick_clouds(data_dir: Path, split: str):
     idx = json.loads((data_dir / split / "index.json").read_text())["clouds"]
     if split != "train":
@@ -75,20 +123,64 @@ def inconsistency(n, rows, nb):
     return 1 - np.abs(np.einsum("nj,nkj->nk", n[rows], n[nb])).mean(1)
 
 
-def cloud_data(data_dir: Path, split: str, c: dict, model, threads: int) -> dict:
-    import nhnet
-    import torch
-    from scipy.spatial import cKDTree
+def half_k(k: int) -> int:
+    """Neighbourhood of the half-scale PCA candidate (geometry/jet.hpp kHalfScaleMin)."""
+    return max(6, k // 2)
 
+
+def pca_rows(xyz, nb):
+    """PCA normals of neighbourhoods nb (M x k) and their surface variations."""
+    q = xyz[nb] - xyz[nb].mean(1, keepdims=True)
+    w, v = np.linalg.eigh(np.einsum("nki,nkj->nij", q, q))
+    return v[:, :, 0], np.maximum(w[:, 0], 0) / w.sum(1)
+
+
+def jet_rows(xyz, rows, nb, frame):
+    """Quadratic height fit over nb in the frame of the PCA normal (geometry/jet.hpp)."""
+    out = np.empty((len(rows), 3))
+    for i, (r, ids) in enumerate(zip(rows, nb)):
+        q, n = xyz[ids] - xyz[r], frame[i]
+        a = np.cross(n, [1.0, 0, 0] if abs(n[0]) < 0.9 else [0, 1.0, 0])
+        a /= np.linalg.norm(a)
+        b = np.cross(n, a)
+        u, v, h = q @ a, q @ b, q @ n
+        s = np.sqrt((u * u + v * v).mean()) + 1e-300
+        u, v = u / s, v / s
+        c = np.linalg.lstsq(np.stack([np.ones_like(u), u, v, u * u, u * v, v * v], 1), h / s,
+                            rcond=None)[0]
+        out[i] = unit(n - c[1] * a - c[2] * b)
+    return out
+
+
+def geometric_candidates(xyz, rows, pca, k: int) -> dict:
+    """The mix's candidates that need no network: jet at k, PCA at half_k(k)."""
+    from scipy.spatial import cKDTree
+    tree = cKDTree(xyz)
+    _, nb = tree.query(xyz[rows], k=min(k, len(xyz)))
+    _, nbh = tree.query(xyz[rows], k=min(half_k(k), len(xyz)))
+    half, var_half = pca_rows(xyz, nbh)
+    return dict(k=k, jet=jet_rows(xyz, rows, nb, pca[rows]), half=half, var_half=var_half)
+
+
+def load_cloud(data_dir: Path, split: str, c: dict):
     xyz = np.loadtxt(data_dir / split / c["files"][0], ndmin=2)
     gt = np.loadtxt(data_dir / split / c["files"][1], ndmin=2)
     if split == "train" and len(xyz) > 20000:
         keep = np.sort(np.random.default_rng(11).choice(len(xyz), 20000, replace=False))
         xyz, gt = xyz[keep], gt[keep]
+    rows = np.sort(np.random.default_rng(7).choice(len(xyz), min(4000, len(xyz)), replace=False))
+    return xyz, gt, rows
+
+
+def cloud_data(data_dir: Path, split: str, c: dict, model, threads: int) -> dict:
+    import nhnet
+    import torch
+    from scipy.spatial import cKDTree
+
+    xyz, gt, rows = load_cloud(data_dir, split, c)
     d = nhnet.descriptors(xyz, threads=threads)
     bl = np.asarray(nhnet.estimate(xyz, method="mfps", orient=None, threads=threads).normals)
     p = nhnet.estimate(xyz, method="pca", orient=None, threads=threads)
-    rows = np.sort(np.random.default_rng(7).choice(len(xyz), min(4000, len(xyz)), replace=False))
     feats = d["features"][rows]
     ok = np.isfinite(feats).all(1) & d["valid"][rows]
     with torch.no_grad():
@@ -100,7 +192,20 @@ def cloud_data(data_dir: Path, split: str, c: dict, model, threads: int) -> dict
                 curv=np.asarray(p.curvature)[rows], noise=d["noise_ratio"],
                 inc_pca=inconsistency(pca, rows, nb), inc_bl=inconsistency(bl, rows, nb),
                 inc_un=inconsistency(un, rows, nb), name=c["name"],
-                cat=c.get("category", ""), level=c["noise_percent"], variant=c["variant"])
+                cat=c.get("category", ""), level=c["noise_percent"], variant=c["variant"],
+                **geometric_candidates(xyz, rows, pca, int(p.k_used)))
+
+
+def extend(data_dir: Path, split: str, c: dict, f: Path, threads: int) -> None:
+    """Adds the geometric candidates to a data file written before they existed (no network)."""
+    import nhnet
+    xyz, _, rows = load_cloud(data_dir, split, c)
+    p = nhnet.estimate(xyz, method="pca", orient=None, threads=threads)
+    z = dict(np.load(f))
+    z.update(geometric_candidates(xyz, rows, np.asarray(p.normals), int(p.k_used)))
+    tmp = f.with_name(f.stem + ".tmp.npz")
+    np.savez(tmp, **z)
+    tmp.replace(f)
 
 
 def cmd_data(a) -> int:
@@ -112,6 +217,9 @@ def cmd_data(a) -> int:
     for c in pick_clouds(Path(a.data_dir), a.split):
         f = out / f"{c['name']}.npz"
         if f.exists():
+            if "var_half" not in np.load(f):
+                extend(Path(a.data_dir), a.split, c, f, a.threads)
+                print(c["name"], "extended", flush=True)
             continue
         tmp = out / f"{c['name']}.tmp.npz"
         np.savez(tmp, **cloud_data(Path(a.data_dir), a.split, c, model, a.threads))
@@ -120,26 +228,32 @@ def cmd_data(a) -> int:
     return 0
 
 
-def features_and_candidates(z):
-    """The C++ mix_row(): features (M x FEATURES) and sign-aligned candidates (M x 4 x 3)."""
-    net, un, bl, pca = (unit(z[k]) for k in ("net", "un", "bl", "pca"))
+def features_and_candidates(z, refine="all"):
+    """The C++ mix_row(): features (M x FEATURES) and sign-aligned candidates (M x 6 x 3). With
+    refine="moved" the network runs only where MFPS moved the PCA normal (refine.cpp,
+    ModelOptions::refine_all = false): elsewhere net = un."""
+    un, bl, pca, jet, half = (unit(z[k]) for k in ("un", "bl", "pca", "jet", "half"))
+    moved = (un != pca).any(1)
+    net = np.where(moved[:, None] | (refine == "all"), unit(z["net"]), un)
     a_up = angle(un, pca)
     w = np.where(a_up > 1e-6, np.clip(angle(un, bl) / np.maximum(a_up, 1e-12), 0, 1), 0)
-    cand = np.stack([net, slerp(net, pca, w), pca, bl], 1)
+    cand = np.stack([net, slerp(net, pca, w), pca, bl, jet, half], 1)
     cand *= np.where(np.sum(cand * net[:, None], -1, keepdims=True) < 0, -1, 1)
     f = np.stack([angle(net, pca), angle(net, bl), angle(pca, bl), angle(net, un), w,
-                  (un != pca).any(1).astype(float), np.full(len(w), np.log(max(float(z["noise"]), 1e-4))),
-                  np.sqrt(np.clip(z["curv"], 0, 1)), z["inc_pca"], z["inc_bl"], z["inc_un"]], 1)
+                  moved.astype(float), np.full(len(w), np.log(max(float(z["noise"]), 1e-4))),
+                  np.sqrt(np.clip(z["curv"], 0, 1)), z["inc_pca"], z["inc_bl"], z["inc_un"],
+                  angle(jet, net), angle(jet, pca), angle(half, net), angle(half, pca),
+                  np.sqrt(np.clip(z["var_half"], 0, 1))], 1)
     return f, cand
 
 
-def load_dir(d: str):
+def load_dir(d: str, refine: str = "all"):
     X, C, G, cid, meta = [], [], [], [], []
     for i, f in enumerate(sorted(Path(d).glob("*.npz"))):
         if f.name.endswith(".tmp.npz"):
             continue
         z = np.load(f)
-        x, c = features_and_candidates(z)
+        x, c = features_and_candidates(z, refine)
         g = unit(z["gt"])
         ok = np.isfinite(x).all(1) & np.isfinite(c).all((1, 2)) & np.isfinite(g).all(1)
         X.append(x[ok]), C.append(c[ok]), G.append(g[ok]), cid.append(np.full(ok.sum(), len(meta)))
@@ -170,7 +284,7 @@ def cmd_fit(a) -> int:
     import torch
     torch.manual_seed(a.seed)
     torch.set_num_threads(a.threads)
-    X, C, G, cid, meta = load_dir(a.data)
+    X, C, G, cid, meta = load_dir(a.data, a.refine)
     x, c, g = (torch.from_numpy(v) for v in (X, C, G))
     cw = torch.from_numpy(1.0 / np.bincount(cid)[cid])  # every cloud weighs the same
     m = make_mix(torch)
@@ -203,7 +317,7 @@ def fmt(v) -> str:
 def write_inc(m, path: Path, a) -> None:
     p = {k: v.detach().numpy() for k, v in m.state_dict().items()}
     rows = lambda w: ",\n    ".join(fmt(r) for r in w)
-    text = f"""// Written by tools/fit_candidate_mix.py (fit {a.data} --epochs {a.epochs} --seed {a.seed});
+    text = f"""// Written by tools/fit_candidate_mix.py (fit {a.data} --refine {a.refine} --epochs {a.epochs} --seed {a.seed});
 // do not edit. Weights of the candidate mix (candidate_mix.hpp), fitted on the training split.
 // clang-format off
 constexpr std::array<double, kMixFeatures> kMean = {fmt(p['mean'])};
@@ -246,15 +360,15 @@ def cmd_report(a) -> int:
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "training"))
     from nhnet_training.evaluate import report
     from nhnet_training.metrics import angle_stats
-    X, C, G, cid, meta = load_dir(a.data)
+    X, C, G, cid, meta = load_dir(a.data, a.refine)
     with torch.no_grad():
         mix = read_inc(Path(a.weights), torch)(torch.from_numpy(X), torch.from_numpy(C)).numpy()
-    names = ["net", "net+blend", "pca-auto", "mfps", "mix"]
+    names = ["net", "net+blend", "pca-auto", "mfps", "jet", "pca-half", "mix"]
     rows = []
     for i, mt in enumerate(meta):
         s = cid == i
         r = dict(mt)
-        for k, n in enumerate(names[:4]):
+        for k, n in enumerate(names[:6]):
             r[n] = angle_stats(np.degrees(angle(C[s, k], G[s])))
         r["mix"] = angle_stats(np.degrees(angle(mix[s], G[s])))
         rows.append(r)
@@ -266,7 +380,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = ap.add_subparsers(dest="cmd", required=True)
     d = sub.add_parser("data")
-    d.add_argument("--split", choices=["train", "benchmark"], required=True)
+    d.add_argument("--split", choices=["train", "benchmark", "analytic"], required=True)
     d.add_argument("--out", required=True)
     d.add_argument("--data-dir", default="data/generated")
     d.add_argument("--model", default="models/nhnet.pt")
@@ -279,11 +393,17 @@ def main(argv=None) -> int:
     f.add_argument("--lr", type=float, default=3e-3)
     f.add_argument("--seed", type=int, default=0)
     f.add_argument("--threads", type=int, default=2)
+    an = sub.add_parser("analytic")
+    an.add_argument("--out", default="data/generated")
     r = sub.add_parser("report")
     r.add_argument("data")
+    for q in (f, r):
+        q.add_argument("--refine", choices=["all", "moved"], default="all",
+                       help="where the network runs (ModelOptions::refine_all true / false)")
     r.add_argument("--weights", required=True)
     a = ap.parse_args(argv)
-    return {"data": cmd_data, "fit": cmd_fit, "report": cmd_report}[a.cmd](a)
+    return {"data": cmd_data, "fit": cmd_fit, "report": cmd_report,
+            "analytic": cmd_analytic}[a.cmd](a)
 
 
 if __name__ == "__main__":

@@ -1,5 +1,5 @@
 // Candidate mix of --method nhnet (learned/candidate_mix.hpp; not the paper's): per point, a
-// fixed two-layer tanh network of rotation-invariant features gives softmax weights over four
+// fixed two-layer tanh network of rotation-invariant features gives softmax weights over six
 // candidate normals. The weights are in candidate_mix_weights.inc, written by
 // tools/fit_candidate_mix.py (docs/design/decisions.md#candidate-mix).
 #include "nhnet/learned/candidate_mix.hpp"
@@ -19,7 +19,26 @@ namespace nhnet {
 
 namespace {
 
+/// One fitted mix: feature standardisation and the three layers.
+struct MixWeights {
+  std::array<double, kMixFeatures> mean, scale;
+  std::array<std::array<double, kMixFeatures>, kMixHidden> w1;
+  std::array<double, kMixHidden> b1;
+  std::array<std::array<double, kMixHidden>, kMixHidden> w2;
+  std::array<double, kMixHidden> b2;
+  std::array<std::array<double, kMixHidden>, kMixCandidates> w3;
+  std::array<double, kMixCandidates> b3;
+};
+
+namespace every_point {  // fitted with the network's normal at every point
 #include "learned/candidate_mix_weights.inc"
+constexpr MixWeights kWeights{kMean, kScale, kW1, kB1, kW2, kB2, kW3, kB3};
+}  // namespace every_point
+
+namespace moved_only {  // fitted with the network only where MFPS moved the PCA normal
+#include "learned/candidate_mix_weights_moved.inc"
+constexpr MixWeights kWeights{kMean, kScale, kW1, kB1, kW2, kB2, kW3, kB3};
+}  // namespace moved_only
 
 using Features = std::array<double, kMixFeatures>;
 using Candidates = std::array<Eigen::Vector3d, kMixCandidates>;
@@ -29,26 +48,25 @@ double line_angle(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   return std::atan2(a.cross(b).norm(), std::abs(a.dot(b)));
 }
 
-/// Softmax weights of the candidates for standardised-by-the-fit features `f`.
-std::array<double, kMixCandidates> mix_weights(const Features& f) {
+/// Softmax weights of the candidates for features `f` under the fitted mix `m`.
+std::array<double, kMixCandidates> mix_weights(const Features& f, const MixWeights& m) {
   std::array<double, kMixHidden> h1{}, h2{};
-  for (int j = 0; j < kMixHidden; ++j) {
-    double z = kB1[size_t(j)];
-    for (int q = 0; q < kMixFeatures; ++q)
-      z += kW1[size_t(j)][size_t(q)] * (f[size_t(q)] - kMean[size_t(q)]) / kScale[size_t(q)];
-    h1[size_t(j)] = std::tanh(z);
+  for (size_t j = 0; j < kMixHidden; ++j) {
+    double z = m.b1[j];
+    for (size_t q = 0; q < kMixFeatures; ++q) z += m.w1[j][q] * (f[q] - m.mean[q]) / m.scale[q];
+    h1[j] = std::tanh(z);
   }
-  for (int j = 0; j < kMixHidden; ++j) {
-    double z = kB2[size_t(j)];
-    for (int q = 0; q < kMixHidden; ++q) z += kW2[size_t(j)][size_t(q)] * h1[size_t(q)];
-    h2[size_t(j)] = std::tanh(z);
+  for (size_t j = 0; j < kMixHidden; ++j) {
+    double z = m.b2[j];
+    for (size_t q = 0; q < kMixHidden; ++q) z += m.w2[j][q] * h1[q];
+    h2[j] = std::tanh(z);
   }
   std::array<double, kMixCandidates> w{};
   double top = -std::numeric_limits<double>::infinity(), sum = 0;
-  for (int c = 0; c < kMixCandidates; ++c) {
-    double z = kB3[size_t(c)];
-    for (int q = 0; q < kMixHidden; ++q) z += kW3[size_t(c)][size_t(q)] * h2[size_t(q)];
-    w[size_t(c)] = z;
+  for (size_t c = 0; c < kMixCandidates; ++c) {
+    double z = m.b3[c];
+    for (size_t q = 0; q < kMixHidden; ++q) z += m.w3[c][q] * h2[q];
+    w[c] = z;
     top = std::max(top, z);
   }
   for (double& v : w) sum += (v = std::exp(v - top));
@@ -72,8 +90,12 @@ Eigen::Vector3d mix_row(const CandidateMixInput& in, const Normals& bl, Eigen::I
   const Eigen::Vector3d net = in.net->row(i).transpose(), pca = in.pca->row(i).transpose();
   const Eigen::Vector3d un = in.mfps->row(i).transpose(), b = bl.row(i).transpose();
   if (!net.allFinite() || !pca.allFinite() || !un.allFinite() || !b.allFinite()) return net;
+  const Eigen::Vector3d jet = in.jet->row(i).allFinite() ? in.jet->row(i).transpose() : pca;
+  const bool has_half = in.half->row(i).allFinite();
+  const Eigen::Vector3d half = has_half ? in.half->row(i).transpose() : pca;
+  const double half_variation = has_half ? (*in.half_variation)[i] : (*in.variation)[i];
   const double w = (*in.blend_weight)[i];
-  const Candidates cand{net, detail::slerp_towards(net, pca, w), pca, b};
+  const Candidates cand{net, detail::slerp_towards(net, pca, w), pca, b, jet, half};
   const Features f{line_angle(net, pca),
                    line_angle(net, b),
                    line_angle(pca, b),
@@ -84,8 +106,14 @@ Eigen::Vector3d mix_row(const CandidateMixInput& in, const Normals& bl, Eigen::I
                    std::sqrt(std::clamp((*in.variation)[i], 0.0, 1.0)),
                    detail::inconsistency(*in.pca, *in.knn, i, kMixNeighbours),
                    detail::inconsistency(bl, *in.knn, i, kMixNeighbours),
-                   detail::inconsistency(*in.mfps, *in.knn, i, kMixNeighbours)};
-  const auto weights = mix_weights(f);
+                   detail::inconsistency(*in.mfps, *in.knn, i, kMixNeighbours),
+                   line_angle(jet, net),
+                   line_angle(jet, pca),
+                   line_angle(half, net),
+                   line_angle(half, pca),
+                   std::sqrt(std::clamp(half_variation, 0.0, 1.0))};
+  const auto weights =
+      mix_weights(f, in.network_everywhere ? every_point::kWeights : moved_only::kWeights);
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   for (int c = 0; c < kMixCandidates; ++c)
     sum += weights[size_t(c)] * (cand[size_t(c)].dot(net) < 0 ? -cand[size_t(c)] : cand[size_t(c)]);
@@ -95,11 +123,13 @@ Eigen::Vector3d mix_row(const CandidateMixInput& in, const Normals& bl, Eigen::I
 }  // namespace
 
 Normals mix_candidates(const CandidateMixInput& in, const RunContext& run) {
-  if (!in.net || !in.mfps || !in.pca || !in.blend_weight || !in.variation || !in.knn)
+  if (!in.net || !in.mfps || !in.pca || !in.jet || !in.half || !in.blend_weight || !in.variation ||
+      !in.half_variation || !in.knn)
     throw InvalidOptions("candidate mix: an input is missing");
   const Eigen::Index m = in.net->rows();
-  if (in.mfps->rows() != m || in.pca->rows() != m || in.blend_weight->size() != m ||
-      in.variation->size() != m || in.knn->rows() != m || in.knn->cols() < kMixNeighbours)
+  if (in.mfps->rows() != m || in.pca->rows() != m || in.jet->rows() != m || in.half->rows() != m ||
+      in.blend_weight->size() != m || in.variation->size() != m || in.half_variation->size() != m ||
+      in.knn->rows() != m || in.knn->cols() < kMixNeighbours)
     throw InvalidOptions(
         "candidate mix: inputs differ in size or the neighbour table has fewer "
         "than " +

@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numeric>
 
 namespace nhnet {
 
@@ -30,15 +31,22 @@ EstimateOptions geometry_options(const EstimateOptions& options, bool pca_blend)
 }
 
 DescriptorInput descriptor_input(const Points& points, EstimateResult geometry,
-                                 const DescriptorOptions& options, const RunContext& run) {
+                                 const DescriptorOptions& options, const RunContext& run,
+                                 const std::vector<uint8_t>* only) {
   DescriptorInput in;
   in.geometry = std::move(geometry);
+  const auto& valid = in.geometry.valid;
   for (Eigen::Index i = 0; i < points.rows(); ++i)
-    if (in.geometry.valid[size_t(i)]) in.rows.push_back(i);
+    if (valid[size_t(i)] && (!only || (*only)[size_t(i)])) in.rows.push_back(i);
+  in.described = Eigen::Index(in.rows.size());
+  if (only)  // the other points with a normal follow: neighbours, not described
+    for (Eigen::Index i = 0; i < points.rows(); ++i)
+      if (valid[size_t(i)] && !(*only)[size_t(i)]) in.rows.push_back(i);
   const Eigen::Index m = Eigen::Index(in.rows.size());
   if (m <= options.filter.spacing_k) {
     in.geometry.warnings.push_back("too few points with a normal for descriptors");
     in.rows.clear();
+    in.described = 0;
     return in;
   }
   in.points.resize(m, 3);
@@ -50,7 +58,13 @@ DescriptorInput descriptor_input(const Points& points, EstimateResult geometry,
   const auto& sc = in.geometry.scales_used;
   in.k = descriptor_k(sc.empty() ? 50 : *std::min_element(sc.begin(), sc.end()), options, m);
   Neighbors tree(in.points);
-  tree.knn_all(in.k, in.knn, nullptr, run);
+  if (in.described == m) {
+    tree.knn_all(in.k, in.knn, nullptr, run);
+  } else {
+    std::vector<int64_t> first(size_t(in.described));
+    std::iota(first.begin(), first.end(), int64_t(0));
+    tree.knn_rows(in.k, first, in.knn, nullptr, run);
+  }
   return in;
 }
 

@@ -6,9 +6,11 @@
 #include "nhnet/errors.hpp"
 #include "nhnet/geometry/bandwidth.hpp"
 #include "nhnet/geometry/feature_detection.hpp"
+#include "nhnet/geometry/jet.hpp"
 #include "nhnet/geometry/mfps.hpp"
 #include "nhnet/geometry/pca.hpp"
 #include "nhnet/geometry/scales.hpp"
+#include "nhnet/learned/candidate_mix.hpp"
 #include "nhnet/neighbors/neighbors.hpp"
 #include "pipeline/estimator.hpp"
 #include "util/parallel.hpp"
@@ -330,20 +332,59 @@ void drop_planeless(const Points& pts, const IndexMatrix& knn, int kdepth, const
       out.row(i).setConstant(std::numeric_limits<double>::quiet_NaN());
 }
 
+/// The side outputs of the geometry stage in canonical rows (GeometrySide before scatter_side).
+struct CanonicalSide {
+  Normals pca, jet, half;
+  Eigen::VectorXd half_variation;
+  Eigen::VectorXd weight;  // empty without MFPS
+};
+
+/// The candidate mix's geometric candidates (jet, half-scale PCA) from the shared table `knn`.
+CanonicalSide side_candidates(const Points& pts, const IndexMatrix& knn, const PcaResult& pca,
+                              int k, const RunContext& run) {
+  CanonicalSide cs;
+  cs.pca = pca.normals;
+  const RunContext last = detail::narrow(run, 1, 1);  // two short passes, still cancellable
+  if (k < 6 || knn.cols() < 6) {                      // a tiny cloud: PCA stands in for both
+    cs.jet = cs.half = pca.normals;
+    cs.half_variation = pca.variation;
+    return cs;
+  }
+  cs.jet = jet_normals(pts, knn, pca.normals, JetOptions{k}, last);
+  PcaResult half = pca_normals(pts, knn, PcaOptions{mix_half_k(k)}, last);
+  cs.half = std::move(half.normals);
+  cs.half_variation = std::move(half.variation);
+  return cs;
+}
+
 /// The side outputs (canonical rows) back to input rows; duplicates share their first copy's.
-void scatter_side(const Normals& pca, const Eigen::VectorXd& weight, const detail::Canonical& canon,
+void scatter_side(const CanonicalSide& cs, const IndexMatrix& knn, const detail::Canonical& canon,
                   detail::GeometrySide& side) {
   const Eigen::Index n = Eigen::Index(canon.copies.size());
-  side.pca.setConstant(n, 3, std::numeric_limits<double>::quiet_NaN());
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  for (Normals* out : {&side.pca, &side.jet, &side.half}) out->setConstant(n, 3, nan);
   side.blend_weight.setZero(n);
-  for (Eigen::Index i = 0; i < pca.rows(); ++i) {
+  side.half_variation.setConstant(n, nan);
+  const Eigen::Index kn = std::min<Eigen::Index>(kMixNeighbours, knn.cols());
+  side.knn.resize(n, kn);
+  for (Eigen::Index i = 0; i < n; ++i) side.knn.row(i).setConstant(int32_t(i));
+  auto put = [](Normals& out, int64_t row, const Eigen::RowVector3d& v) {
+    if (v.allFinite()) out.row(row) = v.normalized();  // as scatter()
+  };
+  for (Eigen::Index i = 0; i < cs.pca.rows(); ++i) {
     const int64_t row = canon.rows[size_t(i)];
-    if (pca.row(i).allFinite()) side.pca.row(row) = pca.row(i).normalized();  // as scatter()
-    if (weight.size() == pca.rows()) side.blend_weight[row] = weight[i];
+    put(side.pca, row, cs.pca.row(i));
+    put(side.jet, row, cs.jet.row(i));
+    put(side.half, row, cs.half.row(i));
+    side.half_variation[row] = cs.half_variation[i];
+    if (cs.weight.size() == cs.pca.rows()) side.blend_weight[row] = cs.weight[i];
+    for (Eigen::Index j = 0; j < kn; ++j) side.knn(row, j) = int32_t(canon.rows[size_t(knn(i, j))]);
   }
   detail::copy_to_duplicates(canon.copies, [&](Eigen::Index i, Eigen::Index first) {
-    side.pca.row(i) = side.pca.row(first);
+    for (Normals* out : {&side.pca, &side.jet, &side.half}) out->row(i) = out->row(first);
     side.blend_weight[i] = side.blend_weight[first];
+    side.half_variation[i] = side.half_variation[first];
+    side.knn.row(i) = side.knn.row(first);
   });
 }
 
@@ -400,7 +441,11 @@ EstimateResult estimate_geometry(const Points& points, const EstimateOptions& op
     drop_planeless(pts, knn, kdepth, pca.normals, out);
   }
   scatter(out, pca.variation, canon.rows, res);
-  if (side) scatter_side(pca.normals, weight, canon, *side);
+  if (side) {
+    CanonicalSide cs = side_candidates(pts, knn, pca, res.k_used, run);
+    cs.weight = std::move(weight);
+    scatter_side(cs, knn, canon, *side);
+  }
   res.spacing = spacing * canon.unit;
   finish_result(res, canon.copies, canon.finite_count);
   if (run.progress) {

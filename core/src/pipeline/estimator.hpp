@@ -44,6 +44,15 @@ struct GeometrySide {
   /// N: weight of the PCA normal in MFPS's PCA blend (mfps_blend.cpp), whether or not the blend
   /// was applied; 0 for points that are no candidate or have no rival face.
   Eigen::VectorXd blend_weight;
+  /// N x 3 jet normals (geometry/jet.hpp, k_used neighbours, PCA's frame); NaN where none.
+  Normals jet;
+  /// N x 3 PCA normals over mix_half_k(k_used) neighbours, and their surface variations; NaN
+  /// where none.
+  Normals half;
+  Eigen::VectorXd half_variation;
+  /// N x kMixNeighbours (fewer in a tiny cloud) nearest input rows of each point, self first;
+  /// a point without a normal lists only itself, a duplicate its first copy's row.
+  IndexMatrix knn;
 };
 
 /// The geometry stage (paper Sec. 4): PCA everywhere, and MFPS near sharp features when
@@ -57,10 +66,13 @@ EstimateResult estimate_nhnet(const Points& points, const EstimateOptions& optio
                               const TileOverrides& overrides);
 
 /// The descriptor input of a cloud whose geometry stage ran (describe.cpp): the rows with a
-/// normal, their points, normals and k-NN table at the descriptor's size.
+/// normal, their points, normals and k-NN table at the descriptor's size. With `only` (one flag
+/// per input row), only the flagged rows are described: they come first (`described` of them,
+/// each with a k-NN row), the other rows with a normal follow as neighbours.
 /// `options` are checked by the caller (neighborhood_factor > 0).
 DescriptorInput descriptor_input(const Points& points, EstimateResult geometry,
-                                 const DescriptorOptions& options, const RunContext& run);
+                                 const DescriptorOptions& options, const RunContext& run,
+                                 const std::vector<uint8_t>* only = nullptr);
 
 /// The options of the geometry stage under the descriptors (training and NH-Net alike): MFPS,
 /// the PCA blend as given, the first 90 % of `options.run`'s progress (the neighbour table of

@@ -83,31 +83,38 @@ int64_t refine_block(const DescriptorInput& in, Eigen::Index b, Eigen::Index len
   return kept;
 }
 
-/// The candidate mix (candidate_mix.hpp) of the described points: their network normals in
-/// `res`, their MFPS normals in `in`, PCA normals and blend weights in `side`.
-void mix_stage(const DescriptorInput& in, const detail::GeometrySide& side, const RunContext& run,
-               EstimateResult& res) {
-  const Eigen::Index m = Eigen::Index(in.rows.size());
-  if (m == 0 || in.knn.cols() < kMixNeighbours) return;  // too small a cloud: the network's
-  Normals net(m, 3), pca(m, 3);
-  Eigen::VectorXd weight(m), variation(m);
-  for (Eigen::Index r = 0; r < m; ++r) {
-    const Eigen::Index row = in.rows[size_t(r)];
-    net.row(r) = res.normals.row(row);
-    pca.row(r) = side.pca.row(row);
-    weight[r] = side.blend_weight[row];
-    variation[r] = res.curvature[row];
-  }
+/// The points NH-Net refines with ModelOptions::refine_all = false: those whose MFPS normal is not
+/// their PCA normal (MFPS moved it near a feature). Elsewhere the mix chooses among PCA and its
+/// geometric candidates (jet, half-scale PCA) at a fraction of the network's cost.
+std::vector<uint8_t> moved_by_mfps(const EstimateResult& geometry,
+                                   const detail::GeometrySide& side) {
+  std::vector<uint8_t> moved(geometry.valid.size(), 0);
+  for (Eigen::Index i = 0; i < Eigen::Index(moved.size()); ++i)
+    moved[size_t(i)] = geometry.valid[size_t(i)] &&
+                       (geometry.normals.row(i).array() != side.pca.row(i).array()).any();
+  return moved;
+}
+
+/// The candidate mix (candidate_mix.hpp) of every point with a normal: network normals in `res`
+/// (MFPS's where the network did not run), MFPS normals in `mfps`, the rest in `side`.
+void mix_stage(const Normals& mfps, const detail::GeometrySide& side, bool everywhere,
+               const RunContext& run, EstimateResult& res) {
+  if (side.knn.cols() < kMixNeighbours) return;  // too small a cloud: the network's normals stay
   CandidateMixInput mi;
-  mi.net = &net;
-  mi.mfps = &in.normals;
-  mi.pca = &pca;
-  mi.blend_weight = &weight;
-  mi.variation = &variation;
-  mi.knn = &in.knn;
+  mi.net = &res.normals;
+  mi.mfps = &mfps;
+  mi.pca = &side.pca;
+  mi.jet = &side.jet;
+  mi.half = &side.half;
+  mi.half_variation = &side.half_variation;
+  mi.blend_weight = &side.blend_weight;
+  mi.variation = &res.curvature;
+  mi.knn = &side.knn;
   mi.noise_ratio = res.noise_ratio;
+  mi.network_everywhere = everywhere;
   const Normals mixed = mix_candidates(mi, run);
-  for (Eigen::Index r = 0; r < m; ++r) res.normals.row(in.rows[size_t(r)]) = mixed.row(r);
+  for (Eigen::Index i = 0; i < mixed.rows(); ++i)
+    if (res.valid[size_t(i)]) res.normals.row(i) = mixed.row(i);
 }
 
 }  // namespace
@@ -128,15 +135,19 @@ EstimateResult estimate_nhnet(const Points& points, const EstimateOptions& optio
   EstimateResult geometry =
       estimate_geometry(points, geometry_options(eo, DescribeOptions{}.mfps_pca_blend), overrides,
                         options.model.candidate_mix ? &side : nullptr);
-  DescriptorInput in =
-      descriptor_input(points, std::move(geometry), DescriptorOptions{}, narrow(eo.run, 0.9, 1));
+  const Normals mfps = geometry.normals;
+  const bool only_moved = options.model.candidate_mix && !options.model.refine_all;
+  const std::vector<uint8_t> moved =
+      only_moved ? moved_by_mfps(geometry, side) : std::vector<uint8_t>();
+  DescriptorInput in = descriptor_input(points, std::move(geometry), DescriptorOptions{},
+                                        narrow(eo.run, 0.9, 1), moved.empty() ? nullptr : &moved);
   EstimateResult res = std::move(in.geometry);
   res.device_used = loaded->device();
   res.descriptor_k = in.k;
   // Blocks of points: memory stays bounded by the block (D floats per point) on top of the
   // neighbour table the geometry stage needs anyway. The block's stages (descriptor stages,
   // "nhnet") reach the caller's callback by name, so a caller can time them apart.
-  const Eigen::Index m = Eigen::Index(in.rows.size()), block = options.model.batch;
+  const Eigen::Index m = in.described, block = options.model.batch;
   int64_t kept = 0;
   RunContext run;
   run.threads = options.run.threads;
@@ -151,7 +162,7 @@ EstimateResult estimate_nhnet(const Points& points, const EstimateOptions& optio
     // A short stage after the last block: it reports at 100 % and can still be cancelled.
     run.progress = cb ? ProgressCallback([cb](double, const std::string& s) { return cb(1, s); })
                       : ProgressCallback();
-    mix_stage(in, side, run, res);
+    mix_stage(mfps, side, !only_moved, run, res);
   }
   if (kept > 0)
     res.warnings.push_back(std::to_string(kept) +

@@ -1,12 +1,16 @@
 // Candidate mix (not the paper's; docs/design/decisions.md#candidate-mix): the last step of
-// --method nhnet. Each point has four candidate normals: NH-Net's refined MFPS normal (Sec. 5),
-// the same rotated towards the PCA normal by MFPS's blend weight, the PCA normal and the blended
-// MFPS normal. A small fixed network (two tanh layers of kMixHidden) maps rotation-invariant
-// features of the point to softmax weights over the candidates; the normal is the normalised
-// weighted sum of the sign-aligned candidates. The candidates disagree most where the paper's
-// network is weakest (organic surfaces at high noise, where the large PCA neighbourhood wins); the
-// mix learns whom to trust there. Weights fitted by tools/fit_candidate_mix.py on the training
-// split only, minimising each training cloud's mean squared angle error (RMS, not the mean).
+// --method nhnet. Each point has six candidate normals: NH-Net's refined MFPS normal (Sec. 5),
+// the same rotated towards the PCA normal by MFPS's blend weight, the PCA normal, the blended
+// MFPS normal, the jet normal (geometry/jet.hpp) and the PCA normal at half the scale. With
+// ModelOptions::refine_all = false NH-Net runs only where MFPS moved the PCA normal (near
+// features; elsewhere its candidate is the MFPS normal, there PCA's), a faster mode with its own
+// fitted weights. A small fixed network
+// (two tanh layers of kMixHidden) maps rotation-invariant features of the point to softmax weights
+// over the candidates; the normal is the normalised weighted sum of the sign-aligned candidates.
+// The candidates disagree most where the paper's network is weakest (organic surfaces at high
+// noise, where the large PCA neighbourhood wins); the mix learns whom to trust there. Weights
+// fitted by tools/fit_candidate_mix.py on the training split only, minimising each training cloud's
+// mean squared angle error (RMS, not the mean).
 #pragma once
 
 #include "nhnet/progress.hpp"
@@ -20,14 +24,19 @@ namespace nhnet {
 /// Features of a point, in this order: angles (radians) net-PCA, net-blended MFPS, PCA-blended
 /// MFPS, net-unblended MFPS; MFPS's blend weight; candidate flag (MFPS normal != PCA normal);
 /// log of the cloud's noise ratio; sqrt of the surface variation; 1 - mean |n_i . n_j| over the
-/// kMixNeighbours nearest points of the PCA, blended MFPS and unblended MFPS normals.
-constexpr int kMixFeatures = 11;
-/// Candidates, in this order: net, net blended towards PCA, PCA, blended MFPS.
-constexpr int kMixCandidates = 4;
+/// kMixNeighbours nearest points of the PCA, blended MFPS and unblended MFPS normals; angles
+/// jet-net, jet-PCA, half-scale PCA-net, half-scale PCA-PCA; sqrt of the half-scale surface
+/// variation.
+constexpr int kMixFeatures = 16;
+/// Candidates, in this order: net, net blended towards PCA, PCA, blended MFPS, jet, half-scale PCA.
+constexpr int kMixCandidates = 6;
 /// Width of the mix's two hidden layers.
 constexpr int kMixHidden = 32;
 /// Neighbours (self included) of the inconsistency features.
 constexpr int kMixNeighbours = 16;
+
+/// Neighbourhood of the half-scale PCA candidate for a PCA neighbourhood of k points.
+constexpr int mix_half_k(int k) { return k / 2 > 6 ? k / 2 : 6; }
 
 /// What the mix reads, all of the same M points (rows of `knn`, whose columns index them too,
 /// self first, at least kMixNeighbours deep).
@@ -38,14 +47,22 @@ struct CandidateMixInput {
   const Normals* mfps = nullptr;
   /// PCA normals (M x 3; NaN where PCA failed).
   const Normals* pca = nullptr;
+  /// Jet normals (M x 3; NaN where the fit failed: PCA's stands in).
+  const Normals* jet = nullptr;
+  /// PCA normals at mix_half_k(k) (M x 3; NaN where PCA failed: PCA's stands in).
+  const Normals* half = nullptr;
   /// MFPS's blend weights (M; 0 where no rival).
   const Eigen::VectorXd* blend_weight = nullptr;
-  /// Surface variations (M).
+  /// Surface variations (M), at PCA's k and at mix_half_k(k).
   const Eigen::VectorXd* variation = nullptr;
+  const Eigen::VectorXd* half_variation = nullptr;
   /// Neighbour table (M x K, K >= kMixNeighbours).
   const IndexMatrix* knn = nullptr;
   /// The cloud's noise ratio (EstimateResult::noise_ratio).
   double noise_ratio = 0;
+  /// Whether `net` is the network's output at every point (ModelOptions::refine_all) or only
+  /// where MFPS moved the PCA normal (elsewhere it is the MFPS normal): each has its fitted mix.
+  bool network_everywhere = true;
 };
 
 /// The mixed normals (M x 3, unit). A point whose PCA normal or network normal is missing keeps

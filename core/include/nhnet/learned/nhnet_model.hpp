@@ -35,6 +35,10 @@ struct ModelOptions {
   /// Mix the network's normals with the PCA and MFPS candidates (candidate_mix.hpp; not the
   /// paper's, lower RMS); false = the network's normals as they are (the paper's NH-Net).
   bool candidate_mix = true;
+  /// With the candidate mix: run the network on every point (true), or only where MFPS moved the
+  /// PCA normal, near features (false: 2-4x less network time, somewhat higher RMS on smooth
+  /// surfaces; docs/benchmark/candidate-mix/table.md).
+  bool refine_all = true;
 };
 
 /// A loaded model. Loading checks the metadata the exporter wrote (descriptor version, size,

@@ -36,11 +36,16 @@ struct Descriptors {
 /// normals), the input rows that have a normal, those points, normals and their k-NN table.
 struct DescriptorInput {
   EstimateResult geometry;
+  /// Input rows of the points with a normal: the described ones first.
   std::vector<Eigen::Index> rows;
+  /// Those points and their normals, in the order of `rows`.
   Points points;
   Normals normals;
+  /// described x k neighbour table (indices into `points`) of the first `described` points.
   IndexMatrix knn;
   int k = 0;
+  /// How many of the leading points are described (all of them unless a caller chose some).
+  Eigen::Index described = 0;
 };
 
 /// Runs the geometry stage (estimate_normals, MFPS) and builds the neighbour table of the points
