@@ -100,6 +100,7 @@ def cmd_analytic(a) -> int:
         name = f"{shape}_{n}_noise{level:g}"
         np.savetxt(out / f"{name}.xyz", pts, fmt="%.8f")
         np.savetxt(out / f"{name}.normals", nrm, fmt="%.8f")
+        np.savetxt(out / f"{name}.gt.xyzn", np.hstack([pts, nrm]), fmt="%.8f")  # nhnet-cli eval
         clouds.append(dict(name=name, model=shape, category="Analytic", noise_percent=level,
                            variant="uniform", files=[f"{name}.xyz", f"{name}.normals"]))
     (out / "index.json").write_text(json.dumps({"clouds": clouds}, indent=1))
