@@ -131,15 +131,33 @@ double rms_of(const Points& pts, const Normals& truth, Method method, bool mix) 
   return std::sqrt(sum / double(r.normals.rows())) * 180 / M_PI;
 }
 
+/// NH-Net's RMS without and with the mix, and PCA's, on one cloud; recorded in the test's XML.
+struct ThreeRms {
+  double without, with, pca;
+};
+ThreeRms three_rms(const Points& pts, const Normals& truth) {
+  const ThreeRms r{rms_of(pts, truth, Method::NhNet, false),
+                   rms_of(pts, truth, Method::NhNet, true), rms_of(pts, truth, Method::Pca, false)};
+  ::testing::Test::RecordProperty("rms_without_mix", std::to_string(r.without));
+  ::testing::Test::RecordProperty("rms_with_mix", std::to_string(r.with));
+  ::testing::Test::RecordProperty("rms_pca", std::to_string(r.pca));
+  return r;
+}
+
+/// A fixture's points with Gaussian noise of `sigma` on every coordinate.
+Points with_noise(const Points& pts, double sigma, unsigned seed) {
+  Points noisy = pts;
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> g(0.0, sigma);
+  for (Eigen::Index i = 0; i < noisy.rows(); ++i)
+    noisy.row(i) += Eigen::RowVector3d(g(rng), g(rng), g(rng));
+  return noisy;
+}
+
 TEST(CandidateMix, LowersNhNetRmsOnANoisyCube) {
   if (!nhnet_available()) GTEST_FAIL() << "this build has no libtorch: the default method needs it";
   const fixtures::Fixture f = fixtures::cube(6000, 0.02, 5);  // 0.6 % of the diagonal (2 sqrt 3)
-  const double without = rms_of(f.points, f.normals, Method::NhNet, false);
-  const double with = rms_of(f.points, f.normals, Method::NhNet, true);
-  const double pca = rms_of(f.points, f.normals, Method::Pca, false);
-  RecordProperty("rms_without_mix", std::to_string(without));
-  RecordProperty("rms_with_mix", std::to_string(with));
-  RecordProperty("rms_pca", std::to_string(pca));
+  const auto [without, with, pca] = three_rms(f.points, f.normals);
   // Deterministic runs (fixed seed, results independent of the thread count; the model's float32
   // outputs move by < 1e-4 deg between machines), so 2 % is far outside run-to-run change. Sharp
   // edges at high noise: the mix gains 4 % on the network here (12.72 -> 12.24 deg), 23 % on PCA.
@@ -151,17 +169,8 @@ TEST(CandidateMix, KeepsTheNetworksGainOnANoisySphere) {
   if (!nhnet_available()) GTEST_FAIL() << "this build has no libtorch: the default method needs it";
   // 20 000 points: the density of the clouds the mix was fitted on (the test split's).
   const fixtures::Fixture f = fixtures::sphere(20000, 5);
-  Points noisy = f.points;
-  std::mt19937 rng(5);
-  std::normal_distribution<double> g(0.0, 0.021);  // 0.6 % of the bbox diagonal (2 sqrt 3)
-  for (Eigen::Index i = 0; i < noisy.rows(); ++i)
-    noisy.row(i) += Eigen::RowVector3d(g(rng), g(rng), g(rng));
-  const double without = rms_of(noisy, f.normals, Method::NhNet, false);
-  const double with = rms_of(noisy, f.normals, Method::NhNet, true);
-  const double pca = rms_of(noisy, f.normals, Method::Pca, false);
-  RecordProperty("rms_without_mix", std::to_string(without));
-  RecordProperty("rms_with_mix", std::to_string(with));
-  RecordProperty("rms_pca", std::to_string(pca));
+  // 0.6 % of the bbox diagonal (2 sqrt 3)
+  const auto [without, with, pca] = three_rms(with_noise(f.points, 0.021, 5), f.normals);
   // A broad smooth surface is where the network's denoising beats every fit (1.91 vs PCA's 3.02
   // deg), so the mix must trust it: it gives up 4 % of it here (1.99 deg when fitted); 6 % and
   // 0.8 x PCA fail a mix that drifts towards the fits (deterministic runs, see above).
@@ -171,12 +180,7 @@ TEST(CandidateMix, KeepsTheNetworksGainOnANoisySphere) {
 
 TEST(CandidateMix, MovedModeRunsTheNetworkOnFewerPoints) {
   if (!nhnet_available()) GTEST_FAIL() << "this build has no libtorch: the default method needs it";
-  const fixtures::Fixture f = fixtures::sphere(4000, 6);
-  Points noisy = f.points;
-  std::mt19937 rng(6);
-  std::normal_distribution<double> g(0.0, 0.021);
-  for (Eigen::Index i = 0; i < noisy.rows(); ++i)
-    noisy.row(i) += Eigen::RowVector3d(g(rng), g(rng), g(rng));
+  const Points noisy = with_noise(fixtures::sphere(4000, 6).points, 0.021, 6);
   // Every block of `batch` points ends with one "nhnet" progress call (refine.cpp), so the count
   // of those calls is at least the number of blocks the network ran.
   auto blocks = [&](bool all) {
