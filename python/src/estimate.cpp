@@ -28,9 +28,12 @@ struct PyEstimateResult {
 PyEstimateResult estimate(const py::handle& points, const std::optional<std::string>& method, int k,
                           std::optional<std::vector<int>> scales, int threads, uint64_t seed,
                           const py::object& orient, const py::object& viewpoint,
-                          const py::object& progress) {
+                          const py::object& progress, const std::string& refine) {
   EstimateOptions opt;
   opt.method = method ? method_from_string(*method) : default_method();
+  if (refine != "all" && refine != "moved")
+    throw InvalidOptions("refine must be 'all' or 'moved', got '" + refine + "'");
+  opt.model.refine_all = refine == "all";
   opt.k = k;
   if (scales) opt.mfps.scales = *scales;
   opt.run.threads = threads;
@@ -99,6 +102,10 @@ viewpoint : sequence of 3 numbers, optional
 progress : callable, optional
     ``progress(fraction: float, stage: str)`` called about every 50 ms; return False (or raise)
     to cancel: False raises nhnet.Cancelled, an exception is re-raised as it is.
+refine : {'all', 'moved'}
+    NH-Net only (nhnet-cli --refine): 'all' (default) runs the network on every point; 'moved'
+    only where MFPS moved the PCA normal (near features), the jet and half-scale PCA candidates
+    elsewhere: much less network time, PCA's accuracy on broad smooth surfaces.
 
 The GIL is released while the core runs; Ctrl-C interrupts it (KeyboardInterrupt).
 
@@ -172,7 +179,8 @@ void register_estimate(py::module_& m) {
       py::arg("points"), py::kw_only(), py::arg("method") = py::none(), py::arg("k") = defaults.k,
       py::arg("scales") = py::none(), py::arg("threads") = defaults.run.threads,
       py::arg("seed") = defaults.mfps.seed, py::arg("orient") = to_string(kDefaultOrientMode),
-      py::arg("viewpoint") = py::none(), py::arg("progress") = py::none());
+      py::arg("viewpoint") = py::none(), py::arg("progress") = py::none(),
+      py::arg("refine") = defaults.model.refine_all ? "all" : "moved");
   std::apply([&](const auto&... a) { m.def("estimate", &estimate, estimate_doc.c_str(), a...); },
              args);
 
@@ -182,18 +190,18 @@ void register_estimate(py::module_& m) {
           "that failed. The core's warnings are issued as Python RuntimeWarnings; use "
           "nhnet.estimate() for the valid mask, the noise ratio and the sizes used.\n") +
       kArgsDoc;
-  const auto estimate_normals = [](const py::handle& points,
-                                   const std::optional<std::string>& method, int k,
-                                   std::optional<std::vector<int>> scales, int threads,
-                                   uint64_t seed, const py::object& orient,
-                                   const py::object& viewpoint, const py::object& progress) {
-    PyEstimateResult r =
-        estimate(points, method, k, std::move(scales), threads, seed, orient, viewpoint, progress);
-    for (const std::string& w : r.core.warnings)
-      if (PyErr_WarnEx(PyExc_RuntimeWarning, ("nhnet: " + w).c_str(), 1) != 0)
-        throw py::error_already_set();
-    return r.normals;
-  };
+  const auto estimate_normals =
+      [](const py::handle& points, const std::optional<std::string>& method, int k,
+         std::optional<std::vector<int>> scales, int threads, uint64_t seed,
+         const py::object& orient, const py::object& viewpoint, const py::object& progress,
+         const std::string& refine) {
+        PyEstimateResult r = estimate(points, method, k, std::move(scales), threads, seed, orient,
+                                      viewpoint, progress, refine);
+        for (const std::string& w : r.core.warnings)
+          if (PyErr_WarnEx(PyExc_RuntimeWarning, ("nhnet: " + w).c_str(), 1) != 0)
+            throw py::error_already_set();
+        return r.normals;
+      };
   std::apply(
       [&](const auto&... a) {
         m.def("estimate_normals", estimate_normals, normals_doc.c_str(), a...);

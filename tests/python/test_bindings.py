@@ -397,3 +397,22 @@ def test_denoise_flattens_a_noisy_plane():
     assert d.radius > 0 and d.mean_neighbors > 3
     with pytest.raises(nhnet.InvalidOptions):
         nhnet.denoise(pts, normals[:10])
+
+
+def test_refine_moved_is_the_clis_fast_mode(tmp_path):
+    """refine='moved' gives nhnet-cli --refine moved's normals, and differs from the default."""
+    pts = np.loadtxt(SAMPLE)[:6000]
+    xyz = tmp_path / "part.xyz"
+    np.savetxt(xyz, pts)
+    out = tmp_path / "moved.xyzn"
+    subprocess.run([str(CLI), "estimate", str(xyz), str(out), "--method", "nhnet", "--refine",
+                    "moved", "--orient", "none", "--threads", "2"], check=True, capture_output=True)
+    cli = np.loadtxt(out)[:, 3:6]
+    moved = nhnet.estimate_normals(pts, method="nhnet", refine="moved", orient=None, threads=2)
+    default = nhnet.estimate_normals(pts, method="nhnet", orient=None, threads=2)
+    # The CLI writes 9 significant digits: 1e-4 deg is far above that rounding, far below any
+    # change of method; the default runs the network on every point, so some normals move.
+    assert np.nanmax(angles_deg(moved, cli)) < 1e-4
+    assert np.nanmax(angles_deg(moved, default)) > 0.1
+    with pytest.raises(ValueError, match="refine must be 'all' or 'moved'"):
+        nhnet.estimate(pts[:100], method="nhnet", refine="some")
