@@ -75,19 +75,25 @@ class ProgressBridge {
   py::object user_;
   std::chrono::steady_clock::time_point last_{};
   bool has_error_ = false;
+  bool stopped_ = false;  // once asked to stop, every later call says stop too
   py::object type_, value_, trace_;
 };
 
 /// Runs `fn` with the GIL released, with a ProgressBridge passed in; maps a cancellation caused
-/// by Ctrl-C or by the user's callback back to that Python exception.
+/// by Ctrl-C or by the user's callback back to that Python exception, also when the core ran to
+/// its end after the request (a Ctrl-C is never dropped).
 template <class Fn>
 auto run_released(const py::object& progress, Fn&& fn) {
   ProgressBridge bridge(progress);
   try {
-    py::gil_scoped_release release;
-    return fn(bridge.callback());
-  } catch (const std::exception&) {
+    auto result = [&] {
+      py::gil_scoped_release release;
+      return fn(bridge.callback());
+    }();
     bridge.rethrow_if_python_error();  // GIL held again here
+    return result;
+  } catch (const std::exception&) {
+    bridge.rethrow_if_python_error();
     throw;
   }
 }

@@ -54,6 +54,7 @@ ProgressCallback ProgressBridge::callback() {
 bool ProgressBridge::on_progress(double fraction, const std::string& stage) {
   // Called by the core on the calling thread (the one that released the GIL), possibly inside an
   // OpenMP region: nothing may escape from here, every Python error is stored for later.
+  if (stopped_) return false;  // a stage that missed the first "stop" meets it at its next report
   const auto now = std::chrono::steady_clock::now();
   if (fraction < 1.0 && now - last_ < std::chrono::milliseconds(50)) return true;
   last_ = now;
@@ -79,6 +80,7 @@ bool ProgressBridge::on_progress(double fraction, const std::string& stage) {
     trace_ = py::reinterpret_steal<py::object>(trace);
     has_error_ = true;
   }
+  stopped_ = !go_on;
   return go_on;
 }
 
