@@ -290,7 +290,10 @@ def test_gil_released_during_estimation():
 
 def test_ctrl_c_interrupts_estimation():
     script = (
-        "import sys, numpy as np, nhnet\n"
+        "import signal, sys, numpy as np, nhnet\n"
+        # Python keeps SIGINT ignored when it starts ignored (a runner launched as a background
+        # job of a script): the default handler makes Ctrl-C raise KeyboardInterrupt here.
+        "signal.signal(signal.SIGINT, signal.default_int_handler)\n"
         "p = np.random.default_rng(0).normal(size=(400000, 3))\n"
         "try:\n"
         "    print('start', flush=True)\n"
