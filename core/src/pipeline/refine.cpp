@@ -135,7 +135,8 @@ EstimateResult estimate_nhnet(const Points& points, const EstimateOptions& optio
   EstimateResult geometry =
       estimate_geometry(points, geometry_options(eo, DescribeOptions{}.mfps_pca_blend), overrides,
                         options.model.candidate_mix ? &side : nullptr);
-  const Normals mfps = geometry.normals;
+  // The mix needs the MFPS normals before the network overwrites them; without it, no copy.
+  const Normals mfps = options.model.candidate_mix ? geometry.normals : Normals();
   const bool only_moved = options.model.candidate_mix && !options.model.refine_all;
   const std::vector<uint8_t> moved =
       only_moved ? moved_by_mfps(geometry, side) : std::vector<uint8_t>();
