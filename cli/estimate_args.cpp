@@ -157,9 +157,7 @@ Setup prepare(const EstimateArgs& a) {
   if (a.candidate_mix != "on" && a.candidate_mix != "off")
     throw nhnet::InvalidOptions("--candidate-mix must be on or off, got '" + a.candidate_mix + "'");
   opt.model.candidate_mix = a.candidate_mix == "on";
-  if (a.refine != "all" && a.refine != "moved")
-    throw nhnet::InvalidOptions("--refine must be all or moved, got '" + a.refine + "'");
-  opt.model.refine_all = a.refine == "all";
+  opt.model.refine_all = nhnet::refine_all_from_string(a.refine);
   if (opt.method != nhnet::Method::NhNet && nhnet_asked)
     throw nhnet::InvalidOptions(
         "--model, --device, --candidate-mix and --refine only apply to --method nhnet");

@@ -31,9 +31,7 @@ PyEstimateResult estimate(const py::handle& points, const std::optional<std::str
                           const py::object& progress, const std::string& refine) {
   EstimateOptions opt;
   opt.method = method ? method_from_string(*method) : default_method();
-  if (refine != "all" && refine != "moved")
-    throw InvalidOptions("refine must be 'all' or 'moved', got '" + refine + "'");
-  opt.model.refine_all = refine == "all";
+  opt.model.refine_all = refine_all_from_string(refine);
   opt.k = k;
   if (scales) opt.mfps.scales = *scales;
   opt.run.threads = threads;
@@ -180,7 +178,7 @@ void register_estimate(py::module_& m) {
       py::arg("scales") = py::none(), py::arg("threads") = defaults.run.threads,
       py::arg("seed") = defaults.mfps.seed, py::arg("orient") = to_string(kDefaultOrientMode),
       py::arg("viewpoint") = py::none(), py::arg("progress") = py::none(),
-      py::arg("refine") = defaults.model.refine_all ? "all" : "moved");
+      py::arg("refine") = refine_name(defaults.model.refine_all));
   std::apply([&](const auto&... a) { m.def("estimate", &estimate, estimate_doc.c_str(), a...); },
              args);
 

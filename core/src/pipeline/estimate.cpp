@@ -29,6 +29,14 @@ Method method_from_string(const std::string& name) {
   throw InvalidOptions("unknown method '" + name + "' (expected pca, mfps or nhnet)");
 }
 
+bool refine_all_from_string(const std::string& name) {
+  if (name == "all") return true;
+  if (name == "moved") return false;
+  throw InvalidOptions("refine must be 'all' or 'moved', got '" + name + "'");
+}
+
+const char* refine_name(bool refine_all) { return refine_all ? "all" : "moved"; }
+
 const char* to_string(Method method) {
   switch (method) {
     case Method::Pca: return "pca";

@@ -25,6 +25,11 @@ enum class Method {
 Method method_from_string(const std::string& name);
 const char* to_string(Method method);
 
+/// ModelOptions::refine_all from its front-end name: "all" (true) or "moved" (false); throws
+/// InvalidOptions otherwise. refine_name() is the inverse.
+bool refine_all_from_string(const std::string& name);
+const char* refine_name(bool refine_all);
+
 /// Every front end's default method: NhNet when it can run (this build links libtorch and the
 /// shipped model file, default_model_path(), is there), else Mfps, with `fallback_why` (when
 /// given) set to why NH-Net could not run ("" when it can).
