@@ -190,6 +190,7 @@ def cloud_data(data_dir: Path, split: str, c: dict, model, threads: int) -> dict
     net = np.where(ok[:, None], np.einsum("nji,nj->ni", d["rotations"][rows], local), un[rows])
     _, nb = cKDTree(xyz).query(xyz[rows], k=NEIGHBOURS)
     return dict(net=unit(net), un=un[rows], bl=bl[rows], pca=pca[rows], gt=gt[rows],
+                xyz=xyz[rows],
                 curv=np.asarray(p.curvature)[rows], noise=d["noise_ratio"],
                 inc_pca=inconsistency(pca, rows, nb), inc_bl=inconsistency(bl, rows, nb),
                 inc_un=inconsistency(un, rows, nb), name=c["name"],
@@ -197,12 +198,30 @@ def cloud_data(data_dir: Path, split: str, c: dict, model, threads: int) -> dict
                 **geometric_candidates(xyz, rows, pca, int(p.k_used)))
 
 
+def same_points(z: dict, xyz, gt, rows) -> bool:
+    """Whether data file z holds the points `rows` of the cloud: by their coordinates where it
+    stored them, else by their true normals (files written before it stored them)."""
+    if "xyz" in z:
+        return z["xyz"].shape == xyz[rows].shape and np.allclose(z["xyz"], xyz[rows])
+    return z["gt"].shape == gt[rows].shape and np.allclose(unit(z["gt"]), unit(gt[rows]))
+
+
+def check_points(data_dir: Path, split: str, c: dict, f: Path) -> None:
+    """Refuses a data file whose points are not the cloud's rows as load_cloud picks them now
+    (the generated cloud or the sampling changed since it was written): its candidates would
+    be paired with another point's true normal."""
+    xyz, gt, rows = load_cloud(data_dir, split, c)
+    if not same_points(np.load(f), xyz, gt, rows):
+        raise SystemExit(f"{f}: not the points of {c['name']} that load_cloud picks now (the "
+                         "cloud or the sampling changed): delete it and run `data` again")
+
+
 def extend(data_dir: Path, split: str, c: dict, f: Path, threads: int) -> None:
     """Adds the geometric candidates to a data file written before they existed (no network)."""
     import nhnet
     xyz, _, rows = load_cloud(data_dir, split, c)
-    p = nhnet.estimate(xyz, method="pca", orient=None, threads=threads)
     z = dict(np.load(f))
+    p = nhnet.estimate(xyz, method="pca", orient=None, threads=threads)
     z.update(geometric_candidates(xyz, rows, np.asarray(p.normals), int(p.k_used)))
     tmp = f.with_name(f.stem + ".tmp.npz")
     np.savez(tmp, **z)
@@ -218,6 +237,7 @@ def cmd_data(a) -> int:
     for c in pick_clouds(Path(a.data_dir), a.split):
         f = out / f"{c['name']}.npz"
         if f.exists():
+            check_points(Path(a.data_dir), a.split, c, f)
             if "var_half" not in np.load(f):
                 extend(Path(a.data_dir), a.split, c, f, a.threads)
                 print(c["name"], "extended", flush=True)
