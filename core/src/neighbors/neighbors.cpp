@@ -16,6 +16,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <utility>
 #include <vector>
@@ -143,20 +144,24 @@ constexpr int kHeapFrom = 48;
 template <class TreeT>
 bool knn_by_radius(const TreeT& tree, const float* q, int kk, float r2, uint32_t* idx, float* d2) {
   thread_local std::vector<std::pair<uint32_t, float>> found;
-  thread_local std::vector<uint32_t> order;
+  thread_local std::vector<uint64_t> order;
   nanoflann::RadiusResultSet<float, uint32_t> set(r2, found);
   tree.findNeighbors(set, q, nanoflann::SearchParams(32, 0.f, false));
   if (found.size() < size_t(kk)) return false;
+  // (distance, visit) packed in one integer: a non-negative float's bits order as the float, so
+  // plain integer order is that pair order, without an indirection per comparison.
   order.resize(found.size());
-  for (size_t t = 0; t < order.size(); ++t) order[t] = uint32_t(t);
-  auto nearer = [&](uint32_t a, uint32_t b) {
-    return found[a].second < found[b].second || (found[a].second == found[b].second && a < b);
-  };
-  std::nth_element(order.begin(), order.begin() + (kk - 1), order.end(), nearer);
-  std::sort(order.begin(), order.begin() + kk, nearer);
+  for (size_t t = 0; t < order.size(); ++t) {
+    uint32_t bits;
+    std::memcpy(&bits, &found[t].second, sizeof bits);
+    order[t] = (uint64_t(bits) << 32) | uint64_t(t);
+  }
+  std::nth_element(order.begin(), order.begin() + (kk - 1), order.end());
+  std::sort(order.begin(), order.begin() + kk);
   for (int j = 0; j < kk; ++j) {
-    idx[j] = found[order[size_t(j)]].first;
-    d2[j] = found[order[size_t(j)]].second;
+    const auto& hit = found[size_t(order[size_t(j)] & 0xffffffffu)];
+    idx[j] = hit.first;
+    d2[j] = hit.second;
   }
   return true;
 }
