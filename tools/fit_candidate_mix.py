@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-FEATURES, CANDIDATES, HIDDEN, NEIGHBOURS = 16, 6, 32, 16
+FEATURES, CANDIDATES, HIDDEN, NEIGHBOURS = 24, 8, 32, 16
 LEVEL_CYCLE = [(0.0, "uniform"), (0.1, "uniform"), (0.3, "uniform"), (0.6, "uniform"),
                (1.2, "uniform"), (0.0, "stripes"), (0.3, "gradient"), (0.5, "uniform"),
                (0.05, "uniform"), (0.2, "uniform"), (0.4, "uniform"), (0.0, "gradient"),
@@ -153,14 +153,32 @@ def jet_rows(xyz, rows, nb, frame):
     return out
 
 
+def radial_rows(xyz, rows, nb):
+    """Radial normals of neighbourhoods nb (geometry/radial.hpp): the point's offset from the
+    centroid without its part along the principal direction, its length over the RMS spread, and
+    the middle over the largest eigenvalue."""
+    q = xyz[nb] - xyz[nb].mean(1, keepdims=True)
+    w, v = np.linalg.eigh(np.einsum("nki,nkj->nij", q, q))
+    w = np.maximum(w, 0)
+    d = xyz[rows] - xyz[nb].mean(1)
+    r = d - np.sum(d * v[:, :, 2], 1, keepdims=True) * v[:, :, 2]
+    length, spread = np.linalg.norm(r, axis=1), np.sqrt(w.sum(1) / nb.shape[1])
+    length = np.where((spread > 0) & (length > 1e-9 * spread), length, np.nan)  # radial.cpp
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return r / length[:, None], length / spread, w[:, 1] / w[:, 2]
+
+
 def geometric_candidates(xyz, rows, pca, k: int) -> dict:
-    """The mix's candidates that need no network: jet at k, PCA at half_k(k)."""
+    """The mix's candidates that need no network: jet at k, PCA at half_k(k), radial at both."""
     from scipy.spatial import cKDTree
     tree = cKDTree(xyz)
     _, nb = tree.query(xyz[rows], k=min(k, len(xyz)))
     _, nbh = tree.query(xyz[rows], k=min(half_k(k), len(xyz)))
     half, var_half = pca_rows(xyz, nbh)
-    return dict(k=k, jet=jet_rows(xyz, rows, nb, pca[rows]), half=half, var_half=var_half)
+    radk, offk, elk = radial_rows(xyz, rows, nb)
+    radh, offh, elh = radial_rows(xyz, rows, nbh)
+    return dict(k=k, jet=jet_rows(xyz, rows, nb, pca[rows]), half=half, var_half=var_half,
+                radk=radk, radh=radh, offk=offk, offh=offh, elk=elk, elh=elh)
 
 
 def load_cloud(data_dir: Path, split: str, c: dict):
@@ -238,7 +256,7 @@ def cmd_data(a) -> int:
         f = out / f"{c['name']}.npz"
         if f.exists():
             check_points(Path(a.data_dir), a.split, c, f)
-            if "var_half" not in np.load(f):
+            if "radk" not in np.load(f):
                 extend(Path(a.data_dir), a.split, c, f, a.threads)
                 print(c["name"], "extended", flush=True)
             continue
@@ -250,7 +268,7 @@ def cmd_data(a) -> int:
 
 
 def features_and_candidates(z, refine="all"):
-    """The C++ mix_row(): features (M x FEATURES) and sign-aligned candidates (M x 6 x 3). With
+    """The C++ mix_row(): features (M x FEATURES) and sign-aligned candidates (M x 8 x 3). With
     refine="moved" the network runs only where MFPS moved the PCA normal (refine.cpp,
     ModelOptions::refine_all = false): elsewhere net = un."""
     un, bl, pca, jet, half = (unit(z[k]) for k in ("un", "bl", "pca", "jet", "half"))
@@ -258,13 +276,18 @@ def features_and_candidates(z, refine="all"):
     net = np.where(moved[:, None] | (refine == "all"), unit(z["net"]), un)
     a_up = angle(un, pca)
     w = np.where(a_up > 1e-6, np.clip(angle(un, bl) / np.maximum(a_up, 1e-12), 0, 1), 0)
-    cand = np.stack([net, slerp(net, pca, w), pca, bl, jet, half], 1)
+    radk, radh = (np.where(np.isfinite(z[r]).all(1, keepdims=True), z[r], pca)
+                  for r in ("radk", "radh"))
+    cand = np.stack([net, slerp(net, pca, w), pca, bl, jet, half, radk, radh], 1)
     cand *= np.where(np.sum(cand * net[:, None], -1, keepdims=True) < 0, -1, 1)
     f = np.stack([angle(net, pca), angle(net, bl), angle(pca, bl), angle(net, un), w,
                   moved.astype(float), np.full(len(w), np.log(max(float(z["noise"]), 1e-4))),
                   np.sqrt(np.clip(z["curv"], 0, 1)), z["inc_pca"], z["inc_bl"], z["inc_un"],
                   angle(jet, net), angle(jet, pca), angle(half, net), angle(half, pca),
-                  np.sqrt(np.clip(z["var_half"], 0, 1))], 1)
+                  np.sqrt(np.clip(z["var_half"], 0, 1)),
+                  angle(radk, net), angle(radk, pca), angle(radh, net), angle(radh, pca),
+                  *(np.nan_to_num(z[r], nan=0.0, posinf=0.0)
+                    for r in ("offk", "offh", "elk", "elh"))], 1)
     return f, cand
 
 
@@ -384,12 +407,13 @@ def cmd_report(a) -> int:
     X, C, G, cid, meta = load_dir(a.data, a.refine)
     with torch.no_grad():
         mix = read_inc(Path(a.weights), torch)(torch.from_numpy(X), torch.from_numpy(C)).numpy()
-    names = ["net", "net+blend", "pca-auto", "mfps", "jet", "pca-half", "mix"]
+    names = ["net", "net+blend", "pca-auto", "mfps", "jet", "pca-half", "radial", "radial-half",
+             "mix"]
     rows = []
     for i, mt in enumerate(meta):
         s = cid == i
         r = dict(mt)
-        for k, n in enumerate(names[:6]):
+        for k, n in enumerate(names[:CANDIDATES]):
             r[n] = angle_stats(np.degrees(angle(C[s, k], G[s])))
         r["mix"] = angle_stats(np.degrees(angle(mix[s], G[s])))
         rows.append(r)

@@ -102,8 +102,9 @@ progress : callable, optional
     to cancel: False raises nhnet.Cancelled, an exception is re-raised as it is.
 refine : {'all', 'moved'}
     NH-Net only (nhnet-cli --refine): 'all' (default) runs the network on every point; 'moved'
-    only where MFPS moved the PCA normal (near features), the jet and half-scale PCA candidates
-    elsewhere: much less network time, PCA's accuracy on broad smooth surfaces.
+    only where MFPS moved the PCA normal (near features), the geometric candidates (jet,
+    half-scale PCA, radial) elsewhere: much less network time, PCA's accuracy on broad smooth
+    surfaces.
 
 The GIL is released while the core runs; Ctrl-C interrupts it (KeyboardInterrupt).
 

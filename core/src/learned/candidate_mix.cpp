@@ -1,5 +1,5 @@
 // Candidate mix of --method nhnet (learned/candidate_mix.hpp; not the paper's): per point, a
-// fixed two-layer tanh network of rotation-invariant features gives softmax weights over six
+// fixed two-layer tanh network of rotation-invariant features gives softmax weights over eight
 // candidate normals. The weights are in candidate_mix_weights.inc, written by
 // tools/fit_candidate_mix.py (docs/design/decisions.md#candidate-mix).
 #include "nhnet/learned/candidate_mix.hpp"
@@ -85,6 +85,19 @@ Normals blended(const CandidateMixInput& in) {
   return out;
 }
 
+/// Row i of a radial result: its normal (PCA's where missing), offset and elongation (0 where
+/// missing).
+struct RadialRow {
+  Eigen::Vector3d normal;
+  double offset, elongation;
+};
+RadialRow radial_row(const RadialResult& r, Eigen::Index i, const Eigen::Vector3d& pca) {
+  const bool ok = r.normals.row(i).allFinite();
+  const auto finite_or_zero = [](double v) { return std::isfinite(v) ? v : 0.0; };
+  return {ok ? Eigen::Vector3d(r.normals.row(i).transpose()) : pca, finite_or_zero(r.offset[i]),
+          finite_or_zero(r.elongation[i])};
+}
+
 /// The mixed normal of row i, or its network normal when a candidate is missing.
 Eigen::Vector3d mix_row(const CandidateMixInput& in, const Normals& bl, Eigen::Index i) {
   const Eigen::Vector3d net = in.net->row(i).transpose(), pca = in.pca->row(i).transpose();
@@ -95,7 +108,9 @@ Eigen::Vector3d mix_row(const CandidateMixInput& in, const Normals& bl, Eigen::I
   const Eigen::Vector3d half = has_half ? in.half->row(i).transpose() : pca;
   const double half_variation = has_half ? (*in.half_variation)[i] : (*in.variation)[i];
   const double w = (*in.blend_weight)[i];
-  const Candidates cand{net, detail::slerp_towards(net, pca, w), pca, b, jet, half};
+  const RadialRow rk = radial_row(*in.radial, i, pca), rh = radial_row(*in.radial_half, i, pca);
+  const Candidates cand{net, detail::slerp_towards(net, pca, w), pca, b, jet, half, rk.normal,
+                        rh.normal};
   const Features f{line_angle(net, pca),
                    line_angle(net, b),
                    line_angle(pca, b),
@@ -111,7 +126,15 @@ Eigen::Vector3d mix_row(const CandidateMixInput& in, const Normals& bl, Eigen::I
                    line_angle(jet, pca),
                    line_angle(half, net),
                    line_angle(half, pca),
-                   std::sqrt(std::clamp(half_variation, 0.0, 1.0))};
+                   std::sqrt(std::clamp(half_variation, 0.0, 1.0)),
+                   line_angle(rk.normal, net),
+                   line_angle(rk.normal, pca),
+                   line_angle(rh.normal, net),
+                   line_angle(rh.normal, pca),
+                   rk.offset,
+                   rh.offset,
+                   rk.elongation,
+                   rh.elongation};
   const auto weights =
       mix_weights(f, in.network_everywhere ? every_point::kWeights : moved_only::kWeights);
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
@@ -124,11 +147,12 @@ Eigen::Vector3d mix_row(const CandidateMixInput& in, const Normals& bl, Eigen::I
 
 Normals mix_candidates(const CandidateMixInput& in, const RunContext& run) {
   if (!in.net || !in.mfps || !in.pca || !in.jet || !in.half || !in.blend_weight || !in.variation ||
-      !in.half_variation || !in.knn)
+      !in.half_variation || !in.radial || !in.radial_half || !in.knn)
     throw InvalidOptions("candidate mix: an input is missing");
   const Eigen::Index m = in.net->rows();
   if (in.mfps->rows() != m || in.pca->rows() != m || in.jet->rows() != m || in.half->rows() != m ||
       in.blend_weight->size() != m || in.variation->size() != m || in.half_variation->size() != m ||
+      in.radial->normals.rows() != m || in.radial_half->normals.rows() != m ||
       in.knn->rows() != m || in.knn->cols() < kMixNeighbours)
     throw InvalidOptions(
         "candidate mix: inputs differ in size or the neighbour table has fewer "

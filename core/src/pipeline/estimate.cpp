@@ -9,6 +9,7 @@
 #include "nhnet/geometry/jet.hpp"
 #include "nhnet/geometry/mfps.hpp"
 #include "nhnet/geometry/pca.hpp"
+#include "nhnet/geometry/radial.hpp"
 #include "nhnet/geometry/scales.hpp"
 #include "nhnet/learned/candidate_mix.hpp"
 #include "nhnet/neighbors/neighbors.hpp"
@@ -344,10 +345,19 @@ void drop_planeless(const Points& pts, const IndexMatrix& knn, int kdepth, const
 struct CanonicalSide {
   Normals pca, jet, half;
   Eigen::VectorXd half_variation;
+  RadialResult radial, radial_half;
   Eigen::VectorXd weight;  // empty without MFPS
 };
 
-/// The candidate mix's geometric candidates (jet, half-scale PCA) from the shared table `knn`.
+/// A RadialResult standing in where the cloud is too small for one: all NaN.
+RadialResult no_radial(Eigen::Index n) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  return {Normals::Constant(n, 3, nan), Eigen::VectorXd::Constant(n, nan),
+          Eigen::VectorXd::Constant(n, nan)};
+}
+
+/// The candidate mix's geometric candidates (jet, half-scale PCA, radial at both scales) from
+/// the shared table `knn`.
 CanonicalSide side_candidates(const Points& pts, const IndexMatrix& knn, const PcaResult& pca,
                               int k, const RunContext& run) {
   CanonicalSide cs;
@@ -356,13 +366,23 @@ CanonicalSide side_candidates(const Points& pts, const IndexMatrix& knn, const P
   if (k < 6 || knn.cols() < 6) {                      // a tiny cloud: PCA stands in for both
     cs.jet = cs.half = pca.normals;
     cs.half_variation = pca.variation;
+    cs.radial = cs.radial_half = no_radial(pts.rows());
     return cs;
   }
   cs.jet = jet_normals(pts, knn, pca.normals, JetOptions{k}, last);
   PcaResult half = pca_normals(pts, knn, PcaOptions{mix_half_k(k)}, last);
   cs.half = std::move(half.normals);
   cs.half_variation = std::move(half.variation);
+  cs.radial = radial_normals(pts, knn, RadialOptions{k}, last);
+  cs.radial_half = radial_normals(pts, knn, RadialOptions{mix_half_k(k)}, last);
   return cs;
+}
+
+/// Row `from` of a radial result into row `to` of another.
+void put_radial(RadialResult& out, Eigen::Index to, const RadialResult& in, Eigen::Index from) {
+  out.normals.row(to) = in.normals.row(from);
+  out.offset[to] = in.offset[from];
+  out.elongation[to] = in.elongation[from];
 }
 
 /// The side outputs (canonical rows) back to input rows; duplicates share their first copy's.
@@ -373,6 +393,7 @@ void scatter_side(const CanonicalSide& cs, const IndexMatrix& knn, const detail:
   for (Normals* out : {&side.pca, &side.jet, &side.half}) out->setConstant(n, 3, nan);
   side.blend_weight.setZero(n);
   side.half_variation.setConstant(n, nan);
+  side.radial = side.radial_half = no_radial(n);
   const Eigen::Index kn = std::min<Eigen::Index>(kMixNeighbours, knn.cols());
   side.knn.resize(n, kn);
   for (Eigen::Index i = 0; i < n; ++i) side.knn.row(i).setConstant(int32_t(i));
@@ -385,6 +406,8 @@ void scatter_side(const CanonicalSide& cs, const IndexMatrix& knn, const detail:
     put(side.jet, row, cs.jet.row(i));
     put(side.half, row, cs.half.row(i));
     side.half_variation[row] = cs.half_variation[i];
+    put_radial(side.radial, row, cs.radial, i);
+    put_radial(side.radial_half, row, cs.radial_half, i);
     if (cs.weight.size() == cs.pca.rows()) side.blend_weight[row] = cs.weight[i];
     for (Eigen::Index j = 0; j < kn; ++j) side.knn(row, j) = int32_t(canon.rows[size_t(knn(i, j))]);
   }
@@ -392,6 +415,8 @@ void scatter_side(const CanonicalSide& cs, const IndexMatrix& knn, const detail:
     for (Normals* out : {&side.pca, &side.jet, &side.half}) out->row(i) = out->row(first);
     side.blend_weight[i] = side.blend_weight[first];
     side.half_variation[i] = side.half_variation[first];
+    put_radial(side.radial, i, side.radial, first);
+    put_radial(side.radial_half, i, side.radial_half, first);
     side.knn.row(i) = side.knn.row(first);
   });
 }

@@ -5,6 +5,7 @@
 // estimate_normals).
 #pragma once
 
+#include "nhnet/geometry/radial.hpp"
 #include "nhnet/geometry/scales.hpp"
 #include "nhnet/neighbors/neighbors.hpp"
 #include "nhnet/pipeline/describe.hpp"
@@ -50,6 +51,9 @@ struct GeometrySide {
   /// where none.
   Normals half;
   Eigen::VectorXd half_variation;
+  /// Radial normals (geometry/radial.hpp) with their offsets and elongations, over k_used and
+  /// mix_half_k(k_used) neighbours; NaN where none.
+  RadialResult radial, radial_half;
   /// N x kMixNeighbours (fewer in a tiny cloud) nearest input rows of each point, self first;
   /// a point without a normal lists only itself, a duplicate its first copy's row.
   IndexMatrix knn;

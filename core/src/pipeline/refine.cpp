@@ -85,7 +85,7 @@ int64_t refine_block(const DescriptorInput& in, Eigen::Index b, Eigen::Index len
 
 /// The points NH-Net refines with ModelOptions::refine_all = false: those whose MFPS normal is not
 /// their PCA normal (MFPS moved it near a feature). Elsewhere the mix chooses among PCA and its
-/// geometric candidates (jet, half-scale PCA) at a fraction of the network's cost.
+/// geometric candidates (jet, half-scale PCA, radial) at a fraction of the network's cost.
 std::vector<uint8_t> moved_by_mfps(const EstimateResult& geometry,
                                    const detail::GeometrySide& side) {
   std::vector<uint8_t> moved(geometry.valid.size(), 0);
@@ -107,6 +107,8 @@ void mix_stage(const Normals& mfps, const detail::GeometrySide& side, bool every
   mi.jet = &side.jet;
   mi.half = &side.half;
   mi.half_variation = &side.half_variation;
+  mi.radial = &side.radial;
+  mi.radial_half = &side.radial_half;
   mi.blend_weight = &side.blend_weight;
   mi.variation = &res.curvature;
   mi.knn = &side.knn;

@@ -1,7 +1,8 @@
 // Candidate mix (not the paper's; docs/design/decisions.md#candidate-mix): the last step of
-// --method nhnet. Each point has six candidate normals: NH-Net's refined MFPS normal (Sec. 5),
+// --method nhnet. Each point has eight candidate normals: NH-Net's refined MFPS normal (Sec. 5),
 // the same rotated towards the PCA normal by MFPS's blend weight, the PCA normal, the blended
-// MFPS normal, the jet normal (geometry/jet.hpp) and the PCA normal at half the scale. With
+// MFPS normal, the jet normal (geometry/jet.hpp), the PCA normal at half the scale and the
+// radial normals (geometry/radial.hpp) at both scales. With
 // ModelOptions::refine_all = false NH-Net runs only where MFPS moved the PCA normal (near
 // features; elsewhere its candidate is the MFPS normal, there PCA's), a faster mode with its own
 // fitted weights. A small fixed network
@@ -13,6 +14,7 @@
 // mean squared angle error (RMS, not the mean).
 #pragma once
 
+#include "nhnet/geometry/radial.hpp"
 #include "nhnet/progress.hpp"
 #include "nhnet/types.hpp"
 
@@ -26,10 +28,12 @@ namespace nhnet {
 /// log of the cloud's noise ratio; sqrt of the surface variation; 1 - mean |n_i . n_j| over the
 /// kMixNeighbours nearest points of the PCA, blended MFPS and unblended MFPS normals; angles
 /// jet-net, jet-PCA, half-scale PCA-net, half-scale PCA-PCA; sqrt of the half-scale surface
-/// variation.
-constexpr int kMixFeatures = 16;
-/// Candidates, in this order: net, net blended towards PCA, PCA, blended MFPS, jet, half-scale PCA.
-constexpr int kMixCandidates = 6;
+/// variation; angles radial-net, radial-PCA, half-scale radial-net, half-scale radial-PCA; the
+/// radial offsets at both scales, the elongations at both scales (0 where missing).
+constexpr int kMixFeatures = 24;
+/// Candidates, in this order: net, net blended towards PCA, PCA, blended MFPS, jet, half-scale
+/// PCA, radial, half-scale radial.
+constexpr int kMixCandidates = 8;
 /// Width of the mix's two hidden layers.
 constexpr int kMixHidden = 32;
 /// Neighbours (self included) of the inconsistency features.
@@ -51,6 +55,10 @@ struct CandidateMixInput {
   const Normals* jet = nullptr;
   /// PCA normals at mix_half_k(k) (M x 3; NaN where PCA failed: PCA's stands in).
   const Normals* half = nullptr;
+  /// Radial normals, offsets and elongations at PCA's k and at mix_half_k(k) (M rows; NaN
+  /// where none: PCA's normal stands in).
+  const RadialResult* radial = nullptr;
+  const RadialResult* radial_half = nullptr;
   /// MFPS's blend weights (M; 0 where no rival).
   const Eigen::VectorXd* blend_weight = nullptr;
   /// Surface variations (M), at PCA's k and at mix_half_k(k).

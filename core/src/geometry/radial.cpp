@@ -1,0 +1,63 @@
+// Radial normals (geometry/radial.hpp): one covariance per neighbourhood, as PCA's Eq. 1.
+#include "nhnet/geometry/radial.hpp"
+
+#include "nhnet/errors.hpp"
+#include "util/parallel.hpp"
+
+#include <Eigen/Eigenvalues>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace nhnet {
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+/// An offset below this fraction of the spread is rounding (tools/fit_candidate_mix.py: same).
+constexpr double kOnAxis = 1e-9;
+
+/// Radial normal, offset and elongation of point i from its first k neighbours.
+void radial_row(const Points& points, const int32_t* idx, int k, Eigen::Index i,
+                RadialResult& out) {
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();
+  for (int j = 0; j < k; ++j) c += points.row(idx[j]).transpose();
+  c /= double(k);
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (int j = 0; j < k; ++j) {
+    const Eigen::Vector3d q = points.row(idx[j]).transpose() - c;
+    cov.noalias() += q * q.transpose();
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);  // ascending eigenvalues
+  const Eigen::Vector3d w = eig.eigenvalues().cwiseMax(0.0);
+  const Eigen::Vector3d axis = eig.eigenvectors().col(2);
+  const Eigen::Vector3d d = points.row(i).transpose() - c;
+  const Eigen::Vector3d r = d - d.dot(axis) * axis;
+  const double length = r.norm(), spread = std::sqrt(w.sum() / double(k));
+  out.elongation[i] = w[2] > 0 ? w[1] / w[2] : kNaN;
+  // On the axis up to rounding (a symmetric neighbourhood, a line): no direction to give.
+  const bool ok = spread > 0 && length > kOnAxis * spread && r.allFinite();
+  out.normals.row(i) = ok ? Eigen::RowVector3d((r / length).transpose())
+                          : Eigen::RowVector3d::Constant(kNaN);
+  out.offset[i] = ok ? length / spread : kNaN;
+}
+
+}  // namespace
+
+RadialResult radial_normals(const Points& points, const IndexMatrix& knn,
+                            const RadialOptions& options, const RunContext& run) {
+  const Eigen::Index n = points.rows();
+  if (knn.rows() != n) throw InvalidOptions("radial_normals: knn must have one row per point");
+  const int k =
+      options.k > 0 ? int(std::min<Eigen::Index>(options.k, knn.cols())) : int(knn.cols());
+  if (k < 3) throw InvalidOptions("radial_normals: k must be at least 3");
+  RadialResult out{Normals(n, 3), Eigen::VectorXd(n), Eigen::VectorXd(n)};
+  detail::Progress progress(run.progress);
+  if (run.progress) progress.stage("radial", 0, 1);
+  detail::parallel_for(n, run.threads, run.progress ? &progress : nullptr,
+                       [&](int64_t i) { radial_row(points, &knn(i, 0), k, i, out); });
+  return out;
+}
+
+}  // namespace nhnet
