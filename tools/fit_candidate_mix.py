@@ -408,7 +408,7 @@ def cmd_report(a) -> int:
     with torch.no_grad():
         mix = read_inc(Path(a.weights), torch)(torch.from_numpy(X), torch.from_numpy(C)).numpy()
     names = ["net", "net+blend", "pca-auto", "mfps", "jet", "pca-half", "radial", "radial-half",
-             "mix"]
+             "mix", "oracle"]
     rows = []
     for i, mt in enumerate(meta):
         s = cid == i
@@ -416,6 +416,8 @@ def cmd_report(a) -> int:
         for k, n in enumerate(names[:CANDIDATES]):
             r[n] = angle_stats(np.degrees(angle(C[s, k], G[s])))
         r["mix"] = angle_stats(np.degrees(angle(mix[s], G[s])))
+        # the best candidate of each point, known only with the truth: what a perfect chooser gets
+        r["oracle"] = angle_stats(np.degrees(angle(C[s], G[s][:, None])).min(1))
         rows.append(r)
     print(report(rows, names))
     return 0
