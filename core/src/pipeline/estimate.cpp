@@ -363,7 +363,7 @@ CanonicalSide side_candidates(const Points& pts, const IndexMatrix& knn, const P
   CanonicalSide cs;
   cs.pca = pca.normals;
   const RunContext last = detail::narrow(run, 1, 1);  // two short passes, still cancellable
-  if (k < 6 || knn.cols() < 6) {                      // a tiny cloud: PCA stands in for both
+  if (k < 6 || knn.cols() < 6) {                      // a tiny cloud: PCA stands in for all
     cs.jet = cs.half = pca.normals;
     cs.half_variation = pca.variation;
     cs.radial = cs.radial_half = no_radial(pts.rows());
