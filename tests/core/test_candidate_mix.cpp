@@ -65,8 +65,8 @@ MixData make_data(int n, double spread, unsigned seed) {
     r->elongation = Eigen::VectorXd::Constant(n, 0.8);
   }
   const auto every = [&d] {
-    return std::array<Normals*, 7>{&d.net,  &d.mfps, &d.pca,           &d.jet,
-                                   &d.half, &d.radial.normals, &d.radial_half.normals};
+    return std::array<Normals*, 7>{
+        &d.net, &d.mfps, &d.pca, &d.jet, &d.half, &d.radial.normals, &d.radial_half.normals};
   };
   for (Normals* c : every()) c->resize(n, 3);
   for (Eigen::Index i = 0; i < n; ++i)

@@ -38,8 +38,8 @@ void radial_row(const Points& points, const int32_t* idx, int k, Eigen::Index i,
   out.elongation[i] = w[2] > 0 ? w[1] / w[2] : kNaN;
   // On the axis up to rounding (a symmetric neighbourhood, a line): no direction to give.
   const bool ok = spread > 0 && length > kOnAxis * spread && r.allFinite();
-  out.normals.row(i) = ok ? Eigen::RowVector3d((r / length).transpose())
-                          : Eigen::RowVector3d::Constant(kNaN);
+  out.normals.row(i) =
+      ok ? Eigen::RowVector3d((r / length).transpose()) : Eigen::RowVector3d::Constant(kNaN);
   out.offset[i] = ok ? length / spread : kNaN;
 }
 

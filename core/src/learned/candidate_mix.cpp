@@ -109,8 +109,8 @@ Eigen::Vector3d mix_row(const CandidateMixInput& in, const Normals& bl, Eigen::I
   const double half_variation = has_half ? (*in.half_variation)[i] : (*in.variation)[i];
   const double w = (*in.blend_weight)[i];
   const RadialRow rk = radial_row(*in.radial, i, pca), rh = radial_row(*in.radial_half, i, pca);
-  const Candidates cand{net, detail::slerp_towards(net, pca, w), pca, b, jet, half, rk.normal,
-                        rh.normal};
+  const Eigen::Vector3d toward_pca = detail::slerp_towards(net, pca, w);
+  const Candidates cand{net, toward_pca, pca, b, jet, half, rk.normal, rh.normal};
   const Features f{line_angle(net, pca),
                    line_angle(net, b),
                    line_angle(pca, b),
