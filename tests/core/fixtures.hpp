@@ -4,6 +4,8 @@
 #include "nhnet/neighbors/neighbors.hpp"
 #include "nhnet/types.hpp"
 
+#include <Eigen/Geometry>
+
 #include <cmath>
 #include <random>
 
@@ -13,6 +15,11 @@ struct Fixture {
   nhnet::Points points;
   nhnet::Normals normals;
 };
+
+/// Unoriented angle between unit vectors, radians (atan2 form: exact near 0, as the core's).
+inline double line_angle(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  return std::atan2(a.cross(b).norm(), std::abs(a.dot(b)));
+}
 
 /// K nearest neighbours (self first) of every row of `points` (N x 3): an N x K table.
 inline nhnet::IndexMatrix knn_table(const nhnet::Points& points, int k) {

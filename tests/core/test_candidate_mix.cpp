@@ -78,9 +78,7 @@ MixData make_data(int n, double spread, unsigned seed) {
   return d;
 }
 
-double line_angle(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
-  return std::atan2(a.cross(b).norm(), std::abs(a.dot(b)));
-}
+using fixtures::line_angle;
 
 }  // namespace
 

@@ -29,9 +29,7 @@ void paraboloid(double a, double b, Points& pts, Normals& normals) {
     }
 }
 
-double line_angle(const Eigen::Vector3d& u, const Eigen::Vector3d& v) {
-  return std::atan2(u.cross(v).norm(), std::abs(u.dot(v)));
-}
+using fixtures::line_angle;
 
 }  // namespace
 

@@ -1,7 +1,7 @@
 // Radial normals (geometry/radial.hpp) on analytic fixtures: on a thin rod, where the k nearest
 // wrap around it and PCA's smallest eigenvector is arbitrary, the radial normal is the rod's
 // normal; NaN (not made up) for a point at its neighbours' centroid; the elongation is 0 along a
-// line and near 1 across a round rod.
+// line and clearly above 0 on a rod's band.
 #include "fixtures.hpp"
 #include "nhnet/errors.hpp"
 #include "nhnet/geometry/pca.hpp"
@@ -32,7 +32,7 @@ void rod(Points& pts, Normals& normals) {
 }
 
 double degrees(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
-  return std::atan2(a.cross(b).norm(), std::abs(a.dot(b))) * 180 / std::acos(-1.0);
+  return fixtures::line_angle(a, b) * 180 / std::acos(-1.0);
 }
 
 }  // namespace
