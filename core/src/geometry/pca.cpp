@@ -13,7 +13,8 @@
 namespace nhnet {
 
 Eigen::Vector3d fit_plane(const Points& points, const int32_t* idx, int count,
-                          Eigen::Vector3d* centroid, Eigen::Vector3d* eigenvalues) {
+                          Eigen::Vector3d* centroid, Eigen::Vector3d* eigenvalues,
+                          Eigen::Vector3d* principal) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
   Eigen::Vector3d c = Eigen::Vector3d::Zero();
   for (int j = 0; j < count; ++j) c += points.row(idx[j]).transpose();
@@ -27,10 +28,12 @@ Eigen::Vector3d fit_plane(const Points& points, const int32_t* idx, int count,
   if (centroid) *centroid = c;
   if (count < 3 || !cov.allFinite()) {
     if (eigenvalues) eigenvalues->setConstant(nan);
+    if (principal) principal->setConstant(nan);
     return Eigen::Vector3d::Constant(nan);
   }
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
   if (eigenvalues) *eigenvalues = es.eigenvalues();
+  if (principal) *principal = es.eigenvectors().col(2);
   // Rank < 2 (all points identical or collinear): the plane is undefined.
   const Eigen::Vector3d ev = es.eigenvalues();
   if (!(ev[1] > 1e-12 * std::max(ev[2], 1e-300))) return Eigen::Vector3d::Constant(nan);

@@ -1,10 +1,9 @@
-// Radial normals (geometry/radial.hpp): one covariance per neighbourhood, as PCA's Eq. 1.
+// Radial normals (geometry/radial.hpp): one covariance per neighbourhood, PCA's fit_plane (Eq. 1).
 #include "nhnet/geometry/radial.hpp"
 
 #include "nhnet/errors.hpp"
+#include "nhnet/geometry/pca.hpp"
 #include "util/parallel.hpp"
-
-#include <Eigen/Eigenvalues>
 
 #include <algorithm>
 #include <cmath>
@@ -21,20 +20,12 @@ constexpr double kOnAxis = 1e-9;
 /// Radial normal, offset and elongation of point i from its first k neighbours.
 void radial_row(const Points& points, const int32_t* idx, int k, Eigen::Index i,
                 RadialResult& out) {
-  Eigen::Vector3d c = Eigen::Vector3d::Zero();
-  for (int j = 0; j < k; ++j) c += points.row(idx[j]).transpose();
-  c /= double(k);
-  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-  for (int j = 0; j < k; ++j) {
-    const Eigen::Vector3d q = points.row(idx[j]).transpose() - c;
-    cov.noalias() += q * q.transpose();
-  }
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);  // ascending eigenvalues
-  const Eigen::Vector3d w = eig.eigenvalues().cwiseMax(0.0);
-  const Eigen::Vector3d axis = eig.eigenvectors().col(2);
+  Eigen::Vector3d c, ev, axis;
+  fit_plane(points, idx, k, &c, &ev, &axis);  // the covariance over k, as PCA's
+  const Eigen::Vector3d w = ev.cwiseMax(0.0);
   const Eigen::Vector3d d = points.row(i).transpose() - c;
   const Eigen::Vector3d r = d - d.dot(axis) * axis;
-  const double length = r.norm(), spread = std::sqrt(w.sum() / double(k));
+  const double length = r.norm(), spread = std::sqrt(w.sum());
   out.elongation[i] = w[2] > 0 ? w[1] / w[2] : kNaN;
   // On the axis up to rounding (a symmetric neighbourhood, a line): no direction to give.
   const bool ok = spread > 0 && length > kOnAxis * spread && r.allFinite();

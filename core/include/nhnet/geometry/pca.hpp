@@ -29,9 +29,11 @@ PcaResult pca_normals(const Points& points, const IndexMatrix& knn, const PcaOpt
                       const RunContext& run = {});
 
 /// Least-squares plane through the rows `idx[0..count)` of `points`: returns the unit normal and
-/// writes the centroid and the eigenvalues (ascending) when asked. Degenerate input gives NaN.
+/// writes the centroid, the covariance's eigenvalues (ascending) and its principal direction
+/// (the eigenvector of the largest) when asked. Degenerate input gives NaN.
 Eigen::Vector3d fit_plane(const Points& points, const int32_t* idx, int count,
                           Eigen::Vector3d* centroid = nullptr,
-                          Eigen::Vector3d* eigenvalues = nullptr);
+                          Eigen::Vector3d* eigenvalues = nullptr,
+                          Eigen::Vector3d* principal = nullptr);
 
 }  // namespace nhnet
