@@ -129,10 +129,18 @@ def half_k(k: int) -> int:
     return max(6, k // 2)
 
 
-def pca_rows(xyz, nb):
-    """PCA normals of neighbourhoods nb (M x k) and their surface variations."""
-    q = xyz[nb] - xyz[nb].mean(1, keepdims=True)
+def covariance_eig(xyz, nb):
+    """Centroids of neighbourhoods nb (M x k) and their covariances' eigenvalues (ascending, of
+    the scatter, not divided by k) and eigenvectors (columns), as geometry/pca.cpp's fit_plane."""
+    c = xyz[nb].mean(1)
+    q = xyz[nb] - c[:, None]
     w, v = np.linalg.eigh(np.einsum("nki,nkj->nij", q, q))
+    return c, w, v
+
+
+def pca_rows(eig):
+    """PCA normals and surface variations from covariance_eig()."""
+    _, w, v = eig
     return v[:, :, 0], np.maximum(w[:, 0], 0) / w.sum(1)
 
 
@@ -153,16 +161,15 @@ def jet_rows(xyz, rows, nb, frame):
     return out
 
 
-def radial_rows(xyz, rows, nb):
-    """Radial normals of neighbourhoods nb (geometry/radial.hpp): the point's offset from the
-    centroid without its part along the principal direction, its length over the RMS spread, and
-    the middle over the largest eigenvalue."""
-    q = xyz[nb] - xyz[nb].mean(1, keepdims=True)
-    w, v = np.linalg.eigh(np.einsum("nki,nkj->nij", q, q))
+def radial_rows(xyz, rows, eig, k: int):
+    """Radial normals (geometry/radial.hpp) from covariance_eig() of k-point neighbourhoods: the
+    point's offset from the centroid without its part along the principal direction, its length
+    over the RMS spread, and the middle over the largest eigenvalue."""
+    c, w, v = eig
     w = np.maximum(w, 0)
-    d = xyz[rows] - xyz[nb].mean(1)
+    d = xyz[rows] - c
     r = d - np.sum(d * v[:, :, 2], 1, keepdims=True) * v[:, :, 2]
-    length, spread = np.linalg.norm(r, axis=1), np.sqrt(w.sum(1) / nb.shape[1])
+    length, spread = np.linalg.norm(r, axis=1), np.sqrt(w.sum(1) / k)
     length = np.where((spread > 0) & (length > 1e-9 * spread), length, np.nan)  # radial.cpp
     with np.errstate(divide="ignore", invalid="ignore"):
         return r / length[:, None], length / spread, w[:, 1] / w[:, 2]
@@ -174,9 +181,10 @@ def geometric_candidates(xyz, rows, pca, k: int) -> dict:
     tree = cKDTree(xyz)
     _, nb = tree.query(xyz[rows], k=min(k, len(xyz)))
     _, nbh = tree.query(xyz[rows], k=min(half_k(k), len(xyz)))
-    half, var_half = pca_rows(xyz, nbh)
-    radk, offk, elk = radial_rows(xyz, rows, nb)
-    radh, offh, elh = radial_rows(xyz, rows, nbh)
+    eig_half = covariance_eig(xyz, nbh)
+    half, var_half = pca_rows(eig_half)
+    radk, offk, elk = radial_rows(xyz, rows, covariance_eig(xyz, nb), nb.shape[1])
+    radh, offh, elh = radial_rows(xyz, rows, eig_half, nbh.shape[1])
     return dict(k=k, jet=jet_rows(xyz, rows, nb, pca[rows]), half=half, var_half=var_half,
                 radk=radk, radh=radh, offk=offk, offh=offh, elk=elk, elh=elh)
 
@@ -224,20 +232,18 @@ def same_points(z: dict, xyz, gt, rows) -> bool:
     return z["gt"].shape == gt[rows].shape and np.allclose(unit(z["gt"]), unit(gt[rows]))
 
 
-def check_points(data_dir: Path, split: str, c: dict, f: Path) -> None:
+def check_points(f: Path, c: dict, xyz, gt, rows) -> None:
     """Refuses a data file whose points are not the cloud's rows as load_cloud picks them now
     (the generated cloud or the sampling changed since it was written): its candidates would
     be paired with another point's true normal."""
-    xyz, gt, rows = load_cloud(data_dir, split, c)
     if not same_points(np.load(f), xyz, gt, rows):
         raise SystemExit(f"{f}: not the points of {c['name']} that load_cloud picks now (the "
                          "cloud or the sampling changed): delete it and run `data` again")
 
 
-def extend(data_dir: Path, split: str, c: dict, f: Path, threads: int) -> None:
+def extend(f: Path, xyz, rows, threads: int) -> None:
     """Adds the geometric candidates to a data file written before they existed (no network)."""
     import nhnet
-    xyz, _, rows = load_cloud(data_dir, split, c)
     z = dict(np.load(f))
     p = nhnet.estimate(xyz, method="pca", orient=None, threads=threads)
     z.update(geometric_candidates(xyz, rows, np.asarray(p.normals), int(p.k_used)))
@@ -255,9 +261,10 @@ def cmd_data(a) -> int:
     for c in pick_clouds(Path(a.data_dir), a.split):
         f = out / f"{c['name']}.npz"
         if f.exists():
-            check_points(Path(a.data_dir), a.split, c, f)
+            xyz, gt, rows = load_cloud(Path(a.data_dir), a.split, c)
+            check_points(f, c, xyz, gt, rows)
             if "radk" not in np.load(f):
-                extend(Path(a.data_dir), a.split, c, f, a.threads)
+                extend(f, xyz, rows, a.threads)
                 print(c["name"], "extended", flush=True)
             continue
         tmp = out / f"{c['name']}.tmp.npz"
