@@ -16,7 +16,6 @@
 #include <limits>
 #include <memory>
 #include <numeric>
-#include <queue>
 #include <string>
 #include <vector>
 
@@ -278,7 +277,8 @@ class Prim {
         graph_(graph),
         options_(options),
         progress_(progress),
-        visited_(static_cast<size_t>(pts.rows()), 0) {}
+        visited_(static_cast<size_t>(pts.rows()), 0),
+        frontier_(static_cast<size_t>(pts.rows())) {}
 
   /// Consistency of the pair (i, j): c_ij > 0 when the signs agree. Hoppe: g_i . g_j.
   /// Reflection (OrientOptions::reflect): g_i mirrored at the bisecting plane of p_i p_j,
@@ -307,34 +307,100 @@ class Prim {
   /// Marks u as reached without queueing its edges (visit() follows).
   void mark(int32_t u) { visited_[size_t(u)] = 1; }
 
-  /// Marks u as reached and queues its edges to points not yet reached; reports progress.
+  /// Marks u as reached and offers each point not yet reached its edge from u (kept when it is
+  /// that point's cheapest so far); reports progress.
   void visit(int32_t u) {
     visited_[size_t(u)] = 1;
     for (int32_t v : graph_.adj[size_t(u)])
-      if (!visited_[size_t(v)]) heap_.push(Edge{1.0 - std::abs(consistency(u, v)), u, v});
+      if (!visited_[size_t(v)]) frontier_.offer(v, 1.0 - std::abs(consistency(u, v)), u);
     if ((++done_ & 4095) == 0 && options_.run.progress &&
         !progress_.report(double(done_) / double(pts_.rows())))
       progress_.throw_if_cancelled();
   }
 
-  /// Grows the trees until the heap is empty: each point reached along the cheapest edge turns
-  /// its guide to agree with the point it is reached from (and joins `members` when given).
+  /// Grows the trees until no point is offered: the point with the cheapest edge is reached
+  /// next and turns its guide to agree with the point it is reached from (and joins `members`
+  /// when given).
   void drain(std::vector<int32_t>* members) {
-    while (!heap_.empty()) {
-      const Edge e = heap_.top();
-      heap_.pop();
-      if (visited_[size_t(e.to)]) continue;
-      if (consistency(e.from, e.to) < 0) guide_.row(e.to) *= -1.0;
-      if (members) members->push_back(e.to);
-      visit(e.to);
+    while (!frontier_.empty()) {
+      int32_t from = 0;
+      const int32_t to = frontier_.pop(from);
+      if (consistency(from, to) < 0) guide_.row(to) *= -1.0;
+      if (members) members->push_back(to);
+      visit(to);
     }
   }
 
  private:
-  struct Edge {
-    double cost;
-    int32_t from, to;
-    bool operator<(const Edge& o) const { return cost > o.cost; }  // min-heap
+  /// The points not yet reached that have an edge from a reached one, each with its cheapest
+  /// edge, in an indexed 4-ary min-heap: one entry per point (an edge that is no longer the
+  /// point's cheapest is dropped at once, not queued and skipped later), so the heap stays as
+  /// small as the frontier. Pops in the order of a queue of all edges (Prim's lazy form) but
+  /// for exact ties of cost.
+  class Frontier {
+   public:
+    explicit Frontier(size_t n) : cost_(n, 0), from_(n, -1), slot_(n, -1) {}
+    bool empty() const { return heap_.empty(); }
+    void offer(int32_t v, double cost, int32_t from) {
+      int32_t at = slot_[size_t(v)];
+      if (at >= 0 && !(cost < cost_[size_t(v)])) return;
+      cost_[size_t(v)] = cost;
+      from_[size_t(v)] = from;
+      if (at < 0) {
+        at = int32_t(heap_.size());
+        heap_.push_back(v);
+      }
+      up(at);
+    }
+    /// Removes the point with the cheapest edge; its source in `from`.
+    int32_t pop(int32_t& from) {
+      const int32_t v = heap_.front();
+      from = from_[size_t(v)];
+      slot_[size_t(v)] = -1;
+      const int32_t last = heap_.back();
+      heap_.pop_back();
+      if (!heap_.empty()) {
+        heap_.front() = last;
+        slot_[size_t(last)] = 0;
+        down(0);
+      }
+      return v;
+    }
+
+   private:
+    void place(int32_t at, int32_t v) {
+      heap_[size_t(at)] = v;
+      slot_[size_t(v)] = at;
+    }
+    void up(int32_t at) {
+      const int32_t v = heap_[size_t(at)];
+      while (at > 0) {
+        const int32_t parent = (at - 1) / 4;
+        if (!(cost_[size_t(v)] < cost_[size_t(heap_[size_t(parent)])])) break;
+        place(at, heap_[size_t(parent)]);
+        at = parent;
+      }
+      place(at, v);
+    }
+    void down(int32_t at) {
+      const int32_t v = heap_[size_t(at)], n = int32_t(heap_.size());
+      for (;;) {
+        const int32_t first = 4 * at + 1;
+        if (first >= n) break;
+        int32_t best = first;
+        for (int32_t c = first + 1; c < std::min(first + 4, n); ++c)
+          if (cost_[size_t(heap_[size_t(c)])] < cost_[size_t(heap_[size_t(best)])]) best = c;
+        if (!(cost_[size_t(heap_[size_t(best)])] < cost_[size_t(v)])) break;
+        place(at, heap_[size_t(best)]);
+        at = best;
+      }
+      place(at, v);
+    }
+
+    std::vector<double> cost_;   // per point: its cheapest edge's cost (while in the heap)
+    std::vector<int32_t> from_;  // per point: that edge's reached end
+    std::vector<int32_t> slot_;  // per point: its place in heap_, -1 when not there
+    std::vector<int32_t> heap_;  // points, cheapest edge first
   };
 
   const Points& pts_;
@@ -343,7 +409,7 @@ class Prim {
   const OrientOptions& options_;
   detail::Progress& progress_;
   std::vector<uint8_t> visited_;
-  std::priority_queue<Edge> heap_;
+  Frontier frontier_;
   int64_t done_ = 0;
 };
 
