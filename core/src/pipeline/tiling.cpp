@@ -55,6 +55,35 @@ double TileSizes::radius(int k) const {
   return far_radius * std::sqrt(std::max(1.0, double(k) / double(std::max(1, far_k))));
 }
 
+namespace {
+
+/// Radii a method's normal depends on: PCA its own neighbourhood, MFPS the patches of its
+/// neighbours, NH-Net the MFPS normals of its neighbours (descriptors, candidate mix).
+int reach(Method method) {
+  switch (method) {
+    case Method::Pca: return 1;
+    case Method::Mfps: return 2;
+    case Method::NhNet: return 3;
+  }
+  return 3;
+}
+
+/// TileSizes' halo for a stage that reaches `radii` radii (see estimate_halo).
+double halo_radii(double halo, int radii) {
+  return std::max(halo - double(reach(Method::NhNet) - radii),
+                  halo * double(radii) / double(reach(Method::NhNet)));
+}
+
+}  // namespace
+
+double TileSizes::estimate_halo(const EstimateOptions& options) const {
+  return halo_radii(options.tiles.halo, reach(options.method)) * radius(kneed);
+}
+
+double TileSizes::variation_halo(const EstimateOptions& options) const {
+  return halo_radii(options.tiles.halo, reach(Method::Pca)) * radius(choice.k_smooth);
+}
+
 TileSizes tile_sizes(const Probe& probe, const EstimateOptions& options, int64_t m) {
   TileSizes t;
   t.choice = choose_scales(probe.noise.ratio, Eigen::Index(m));
@@ -145,14 +174,14 @@ Tiles cut_tiles(const Points& pts, int64_t tile_points) {
 /// cloud's surface variations (feature_detection.hpp), so every point's variation is computed
 /// first, tile by tile (PCA at the smooth size), and the whole cloud's threshold goes to the tiles.
 double variation_threshold(const Points& pts, const Tiles& tiles, const TileSizes& sizes,
-                           double halo_factor, const RunContext& run) {
+                           double halo, const RunContext& run) {
   const Eigen::Index m = pts.rows();
   Eigen::VectorXd variation =
       Eigen::VectorXd::Constant(m, std::numeric_limits<double>::quiet_NaN());
   const int k = int(std::min<Eigen::Index>(sizes.choice.k_smooth, m));
   const size_t count = tiles.leaves.size();
   for (size_t t = 0; t < count; ++t) {
-    const std::vector<int64_t> rows = tile_rows(pts, tiles.boxes[t], halo_factor * sizes.radius(k));
+    const std::vector<int64_t> rows = tile_rows(pts, tiles.boxes[t], halo);
     const Points tile = gather(pts, rows);
     const RunContext r = narrow(run, double(t) / double(count), double(t + 1) / double(count));
     const Eigen::VectorXd v = surface_variation(tile, k, r);
@@ -205,7 +234,7 @@ EstimateResult estimate_tiled(const Points& points, const EstimateOptions& optio
   const Probe probe = probe_noise(pts, Neighbors(pts), narrow(run, 0.01, 0.04), nullptr);
   top.throw_if_cancelled();
   const TileSizes sizes = tile_sizes(probe, options, int64_t(pts.rows()));
-  const double halo = options.tiles.halo * sizes.radius(sizes.kneed);
+  const double halo = sizes.estimate_halo(options);
   const Tiles tiles = cut_tiles(pts, options.tiles.points);
 
   EstimateOptions o = options;
@@ -218,8 +247,8 @@ EstimateResult estimate_tiled(const Points& points, const EstimateOptions& optio
     o.model.loaded = model_for(options.model, options.run.threads);
   const double span1 = options.method == Method::Pca ? 0.0 : 0.15;
   if (options.method != Method::Pca)
-    ov.variation_threshold =
-        variation_threshold(pts, tiles, sizes, options.tiles.halo, narrow(run, 0.04, 0.04 + span1));
+    ov.variation_threshold = variation_threshold(pts, tiles, sizes, sizes.variation_halo(options),
+                                                 narrow(run, 0.04, 0.04 + span1));
 
   std::set<std::string> seen(res.warnings.begin(), res.warnings.end());
   const double begin = 0.04 + span1, span = (0.99 - begin) / double(tiles.leaves.size());
