@@ -128,11 +128,15 @@ void Adjacency::link(const IndexMatrix& knn, int k, int threads) {
     std::sort(b, e);
     kept[size_t(i)] = std::unique(b, e) - b;
   });
+  // In place, front to back: a row's new start is never after its old one (a fresh array
+  // would cost as much in first-touch page faults as the copy itself).
   start_.assign(size_t(m) + 1, 0);
-  for (size_t i = 0; i < size_t(m); ++i) start_[i + 1] = start_[i] + kept[i];
-  next_.resize(size_t(start_.back()));
-  for (size_t i = 0; i < size_t(m); ++i)
-    std::copy_n(next.data() + start[i], kept[i], next_.data() + start_[i]);
+  for (size_t i = 0; i < size_t(m); ++i) {
+    start_[i + 1] = start_[i] + kept[i];
+    std::copy_n(next.data() + start[i], kept[i], next.data() + start_[i]);
+  }
+  next.resize(size_t(start_.back()));
+  next_.swap(next);
 }
 
 /// The symmetric k-NN graph of the points being oriented, and the scales measured on it.
@@ -167,10 +171,7 @@ void link_neighbours(const Points& pts, const IndexMatrix& knn, int k, int threa
   const Eigen::Index m = pts.rows();
   graph.adj.link(knn, k, threads);
   graph.nearest.assign(size_t(m), std::numeric_limits<double>::infinity());
-  int64_t counted = 0;
-  std::vector<double> nearest_all;
-  nearest_all.reserve(size_t(m));
-  for (Eigen::Index i = 0; i < m; ++i) {
+  detail::parallel_for(m, threads, nullptr, [&](int64_t i) {
     double nearest = std::numeric_limits<double>::infinity();
     for (Eigen::Index c = 1; c < k; ++c) {
       const int32_t j = knn(i, c);
@@ -178,6 +179,12 @@ void link_neighbours(const Points& pts, const IndexMatrix& knn, int k, int threa
       nearest = std::min(nearest, (pts.row(j) - pts.row(i)).norm());
     }
     graph.nearest[size_t(i)] = nearest;
+  });
+  int64_t counted = 0;
+  std::vector<double> nearest_all;
+  nearest_all.reserve(size_t(m));
+  for (Eigen::Index i = 0; i < m; ++i) {
+    const double nearest = graph.nearest[size_t(i)];
     if (std::isfinite(nearest)) {
       graph.spacing += nearest;
       nearest_all.push_back(nearest);
