@@ -21,7 +21,7 @@ Eigen::VectorXd residual_bandwidth(const Points& points, const IndexMatrix& knn,
 
   // Pass 1: PCA plane (centroid, normal) and summed absolute residual E_i of every kp-NN patch.
   Points centroid(n, 3), normal(n, 3);
-  Eigen::VectorXd esum(n);
+  Eigen::VectorXd esum(n), log_esum(n);
   detail::Progress progress(run.progress);
   if (run.progress) progress.stage("bandwidth", 0, 0.4);
   detail::parallel_for(n, run.threads, run.progress ? &progress : nullptr, [&](int64_t i) {
@@ -33,24 +33,32 @@ Eigen::VectorXd residual_bandwidth(const Points& points, const IndexMatrix& knn,
     centroid.row(i) = c.transpose();
     normal.row(i) = nrm.transpose();
     esum[i] = e;
+    log_esum[i] = std::log(e);
   });
 
   // Pass 2: every point j takes its residual from the best patch among those centred at its
-  // own kp nearest neighbours.
+  // own kp nearest neighbours, the patch of least E_i exp(q^2). A patch whose score's logarithm
+  // exceeds the best one's by far more than rounding cannot win, and is passed over without
+  // its exp (the same choice as scoring every patch, with a few exp calls a point, not kp).
   Eigen::VectorXd err(n);
   if (run.progress) progress.stage("bandwidth", 0.4, 0.8);
+  constexpr double kLogMargin = 1e-6;  // >> the relative rounding of exp, log and a product
   detail::parallel_for(n, run.threads, run.progress ? &progress : nullptr, [&](int64_t j) {
     const Eigen::Vector3d pj = points.row(j).transpose();
     double best = std::numeric_limits<double>::infinity(), res = 0;
+    double log_best = best;
     for (int t = 0; t < kp; ++t) {
       const int32_t i = knn(j, t);
       const Eigen::Vector3d ni = normal.row(i).transpose();
       const double mu = esum[i] / kp;
       const double o = std::abs((pj - points.row(i).transpose()).dot(ni));
       const double q = o / (2 * mu);
-      const double score = esum[i] * std::exp(std::min(q * q, 700.0));
+      const double q2 = std::min(q * q, 700.0);
+      if (log_esum[i] + q2 > log_best + kLogMargin) continue;
+      const double score = esum[i] * std::exp(q2);
       if (score < best) {
         best = score;
+        log_best = std::log(best);
         res = std::abs((pj - centroid.row(i).transpose()).dot(ni));
       }
     }
