@@ -134,12 +134,11 @@ struct TileSizes {
   /// Radius of a k-neighbourhood (area ~ k on a surface; never below the probe's own radius).
   double radius(int k) const;
   /// Halo widths (frame units) of the in-memory tiling (tiling.cpp) for a tile's estimate and
-  /// for its surface-variation pass. TileOptions::halo counts radii of the largest
-  /// neighbourhood for NH-Net, whose descriptors of MFPS normals reach three; MFPS's patches
-  /// reach two radii and PCA (and the variation pass) one, so they keep NH-Net's margin over
-  /// their own reach: halo - 3 + reach radii, or reach / 3 of the halo where that is wider.
-  /// The streamed and distributed tiles (tiles.cpp) keep halo radii for every method: a
-  /// distributed MST fits its guide normals (50 neighbours) over a tile's halo too.
+  /// for its surface-variation pass: TileOptions::halo radii of the largest neighbourhood for
+  /// MFPS and NH-Net; PCA and the variation pass, whose values depend on one neighbourhood only,
+  /// keep the same margin over that one radius (halo - 2, at least a third of halo). The
+  /// streamed and distributed tiles (tiles.cpp) keep halo for every stage: a distributed MST
+  /// fits its guide normals (50 neighbours) over a tile's halo too.
   double estimate_halo(const EstimateOptions& options) const;
   double variation_halo(const EstimateOptions& options) const;
 };

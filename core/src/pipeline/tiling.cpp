@@ -57,31 +57,23 @@ double TileSizes::radius(int k) const {
 
 namespace {
 
-/// Radii a method's normal depends on: PCA its own neighbourhood, MFPS the patches of its
-/// neighbours, NH-Net the MFPS normals of its neighbours (descriptors, candidate mix).
-int reach(Method method) {
-  switch (method) {
-    case Method::Pca: return 1;
-    case Method::Mfps: return 2;
-    case Method::NhNet: return 3;
-  }
-  return 3;
-}
-
-/// TileSizes' halo for a stage that reaches `radii` radii (see estimate_halo).
-double halo_radii(double halo, int radii) {
-  return std::max(halo - double(reach(Method::NhNet) - radii),
-                  halo * double(radii) / double(reach(Method::NhNet)));
+/// Halo radii for a stage (TileSizes::estimate_halo). NH-Net's descriptors of MFPS normals reach
+/// three radii, and MFPS's kernel widths (bandwidth.hpp) average residuals of patches up to about
+/// four: they take the whole halo. A PCA normal depends on its own neighbourhood only: one radius
+/// plus the margin NH-Net keeps over its three, halo - 2 (at least a third of halo).
+double halo_radii(double halo, Method method) {
+  if (method != Method::Pca) return halo;
+  return std::max(halo - 2.0, halo / 3.0);
 }
 
 }  // namespace
 
 double TileSizes::estimate_halo(const EstimateOptions& options) const {
-  return halo_radii(options.tiles.halo, reach(options.method)) * radius(kneed);
+  return halo_radii(options.tiles.halo, options.method) * radius(kneed);
 }
 
 double TileSizes::variation_halo(const EstimateOptions& options) const {
-  return halo_radii(options.tiles.halo, reach(Method::Pca)) * radius(choice.k_smooth);
+  return halo_radii(options.tiles.halo, Method::Pca) * radius(choice.k_smooth);
 }
 
 TileSizes tile_sizes(const Probe& probe, const EstimateOptions& options, int64_t m) {

@@ -42,10 +42,11 @@ Method default_method(std::string* fallback_why = nullptr);
 struct TileOptions {
   /// Most points per tile; 0 = never tile.
   int64_t points = 1000000;
-  /// Halo width around each tile for NH-Net, in radii of the largest neighbourhood the stages
-  /// use: its descriptors of MFPS normals reach three radii, 4 leaves a margin. MFPS (patches:
-  /// two radii) and PCA (one) keep that margin over their own reach in memory: halo - 1 and
-  /// halo - 2 radii (at least 2/3 and 1/3 of halo); streamed and distributed tiles take halo.
+  /// Halo width around each tile, in radii of the largest neighbourhood the stages use: NH-Net's
+  /// descriptors of MFPS normals reach 3; MFPS's kernel widths average residuals of patches up
+  /// to about 4 radii away, of which 4 cuts only the farthest (tiled = untiled up to rounding,
+  /// tested). In memory PCA takes halo - 2 (its one radius plus that margin, at least a third of
+  /// halo); streamed and distributed tiles take halo.
   double halo = 4;
 };
 
