@@ -44,21 +44,60 @@ TEST(Neighbors, LargeKMatchesBruteForce) {
   }
 }
 
-// On a grid nearly every distance is tied: the heap must break ties as nanoflann's sorted
-// insertion does (the small-k table), so a deep table's first columns are the shallow table.
+// On a grid nearly every distance is tied: the deep tables (searched one leaf at a time, their
+// per-point fallback a heap) must break ties as nanoflann's sorted insertion does (the small-k
+// table), so a deep table's first columns are the shallow table.
 TEST(Neighbors, LargeKBreaksTiesLikeSmallK) {
   Points p(20 * 20 * 3, 3);
   for (int i = 0; i < p.rows(); ++i) p.row(i) << (i % 20), (i / 20) % 20, i / 400;
   Neighbors tree(p);
   IndexMatrix shallow, deep, deeper;
-  tree.knn_all(47, shallow, nullptr);  // below the heap's threshold: nanoflann's own result set
+  tree.knn_all(20, shallow, nullptr);  // below 24: nanoflann's own result set
   tree.knn_all(48, deep, nullptr);
   tree.knn_all(150, deeper, nullptr);
   for (int i = 0; i < p.rows(); ++i)
-    for (int t = 0; t < 47; ++t) {
+    for (int t = 0; t < 20; ++t) {
       ASSERT_EQ(deep(i, t), shallow(i, t)) << "point " << i << " column " << t;
       ASSERT_EQ(deeper(i, t), shallow(i, t)) << "point " << i << " column " << t;
     }
+}
+
+// From 24 neighbours on knn_all searches one kd-tree leaf at a time (leaf_batch.hpp); knn_rows
+// still searches point by point (a radius search, or a heap, from 48 on). Both must give the same
+// table, equal distances included (a grid ties nearly every distance; their order is the one each
+// query's own search visits), with exact duplicates, with density varying 100-fold, and with k
+// close to the cloud's size.
+void expect_same_as_rows(const Points& p, int k) {
+  Neighbors tree(p);
+  IndexMatrix all, rows;
+  DistanceMatrix d_all, d_rows;
+  tree.knn_all(k, all, &d_all, RunContext{2, {}});
+  std::vector<int64_t> every(size_t(p.rows()));
+  for (size_t i = 0; i < every.size(); ++i) every[i] = int64_t(i);
+  tree.knn_rows(k, every, rows, &d_rows);
+  ASSERT_EQ(all.cols(), rows.cols());
+  for (Eigen::Index i = 0; i < p.rows(); ++i)
+    for (Eigen::Index t = 0; t < all.cols(); ++t) {
+      ASSERT_EQ(all(i, t), rows(i, t)) << "k " << k << " point " << i << " column " << t;
+      ASSERT_EQ(d_all(i, t), d_rows(i, t)) << "k " << k << " point " << i << " column " << t;
+    }
+}
+
+TEST(Neighbors, LeafBatchMatchesPointByPoint) {
+  Points grid(24 * 24 * 4, 3);
+  for (int i = 0; i < grid.rows(); ++i) grid.row(i) << (i % 24), (i / 24) % 24, i / 576;
+  expect_same_as_rows(grid, 30);
+  expect_same_as_rows(grid, 48);
+  expect_same_as_rows(grid, 200);
+  Points dup(3000, 3);  // every position three times
+  const auto f = fixtures::sphere(1000, 3);
+  for (int i = 0; i < 3000; ++i) dup.row(i) = f.points.row(i % 1000);
+  expect_same_as_rows(dup, 60);
+  Points dense = fixtures::sphere(4000, 8).points;  // a cluster 100x denser
+  dense.topRows(2000) *= 0.01;
+  expect_same_as_rows(dense, 120);
+  expect_same_as_rows(fixtures::sphere(70, 2).points, 64);
+  expect_same_as_rows(fixtures::sphere(70, 2).points, 70);
 }
 
 TEST(Neighbors, SelfFirstWithExactDuplicates) {

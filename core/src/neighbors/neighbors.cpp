@@ -8,10 +8,11 @@
 // back to input order.
 #include "nhnet/neighbors/neighbors.hpp"
 
+#include "neighbors/first_k.hpp"
+#include "neighbors/kdtree.hpp"
+#include "neighbors/leaf_batch.hpp"
 #include "nhnet/errors.hpp"
 #include "util/parallel.hpp"
-
-#include <nanoflann.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -22,25 +23,15 @@
 
 namespace nhnet {
 
-namespace {
-struct FloatCloud {
-  std::vector<float> xyz;  // 3N, re-centred
-  size_t kdtree_get_point_count() const { return xyz.size() / 3; }
-  float kdtree_get_pt(size_t i, size_t d) const { return xyz[3 * i + d]; }
-  template <class BBOX>
-  bool kdtree_get_bbox(BBOX&) const {
-    return false;
-  }
-};
-using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, FloatCloud>,
-                                                 FloatCloud, 3, uint32_t>;
-}  // namespace
+using detail::FloatCloud;
+using detail::Tree;
 
 struct Neighbors::Impl {
   FloatCloud cloud;                // in leaf order
   std::vector<uint32_t> original;  // leaf-order position -> input index
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
   std::unique_ptr<Tree> tree;
+  detail::TreeShape shape;  // for the search one leaf at a time
 };
 
 Neighbors::Neighbors(const Points& points) : impl_(std::make_unique<Impl>()) {
@@ -66,6 +57,7 @@ Neighbors::Neighbors(const Points& points) : impl_(std::make_unique<Impl>()) {
     vind[p] = uint32_t(p);
   }
   impl_->cloud.xyz.swap(sorted);
+  impl_->shape = detail::tree_shape(*impl_->tree, uint32_t(n));
 }
 
 Neighbors::~Neighbors() = default;
@@ -136,56 +128,6 @@ class HeapResultSet {
 // From this many neighbours on, the heap replaces KNNResultSet's insertion.
 constexpr int kHeapFrom = 48;
 
-/// The first k of a radius search's hits by (squared distance, visit) into idx / d2: a counting
-/// sort on the distance into buckets over [0, r2) (the hits in visiting order, so each bucket
-/// keeps that order), only the buckets that hold the k nearest, then a stable insertion sort on
-/// the distance alone, which only has to order each bucket's few hits. The bucket is a
-/// non-decreasing function of the distance, so equal distances share a bucket and keep their
-/// visiting order: the same order as sorting on the pair, in O(hits + buckets) instead of a
-/// selection and a sort of k (which dominated the search at k = 250 in a perf profile).
-class FirstK {
- public:
-  void take(const std::vector<std::pair<uint32_t, float>>& found, float r2, int kk, uint32_t* idx,
-            float* d2) {
-    const size_t n = found.size();
-    const int buckets = std::max(64, int(std::min<size_t>(n, 4096)));
-    const float scale = float(buckets) / r2;
-    count_.assign(size_t(buckets) + 1, 0);
-    bucket_.resize(n);
-    for (size_t t = 0; t < n; ++t) {
-      const int b = std::min(buckets - 1, int(found[t].second * scale));
-      bucket_[t] = b;
-      ++count_[size_t(b) + 1];
-    }
-    // Buckets [0, last] hold the k nearest; their hits go to order_ at their bucket's start.
-    int last = 0;
-    for (int b = 0; b < buckets; ++b) {
-      count_[size_t(b) + 1] += count_[size_t(b)];
-      last = b;
-      if (count_[size_t(b) + 1] >= size_t(kk)) break;
-    }
-    order_.resize(count_[size_t(last) + 1]);
-    for (size_t t = 0; t < n; ++t)
-      if (bucket_[t] <= last) order_[count_[size_t(bucket_[t])]++] = uint32_t(t);
-    for (size_t j = 1; j < order_.size(); ++j) {  // stable: strict < on the distance
-      const uint32_t t = order_[j];
-      const float d = found[t].second;
-      size_t i = j;
-      for (; i > 0 && d < found[order_[i - 1]].second; --i) order_[i] = order_[i - 1];
-      order_[i] = t;
-    }
-    for (int j = 0; j < kk; ++j) {
-      idx[j] = found[order_[size_t(j)]].first;
-      d2[j] = found[order_[size_t(j)]].second;
-    }
-  }
-
- private:
-  std::vector<size_t> count_;
-  std::vector<int> bucket_;
-  std::vector<uint32_t> order_;
-};
-
 /// k nearest of q from a radius search: every point strictly within sqrt(r2) in the search's
 /// visiting order, the first k of them by (distance, visit) — what KNNResultSet keeps, ties
 /// included, since the k-NN search visits the same nodes in the same order and skips only
@@ -193,11 +135,26 @@ class FirstK {
 template <class TreeT>
 bool knn_by_radius(const TreeT& tree, const float* q, int kk, float r2, uint32_t* idx, float* d2) {
   thread_local std::vector<std::pair<uint32_t, float>> found;
-  thread_local FirstK first;
+  thread_local std::vector<float> dist;
+  thread_local std::vector<int> bucket;
+  thread_local detail::FirstK first;
   nanoflann::RadiusResultSet<float, uint32_t> set(r2, found);
   tree.findNeighbors(set, q, nanoflann::SearchParams(32, 0.f, false));
-  if (found.size() < size_t(kk)) return false;
-  first.take(found, r2, kk, idx, d2);
+  const size_t n = found.size();
+  if (n < size_t(kk)) return false;
+  const int buckets = std::max(64, int(std::min<size_t>(n, 4096)));
+  const float scale = float(buckets) / r2;
+  dist.resize(n);
+  bucket.resize(n);
+  for (size_t t = 0; t < n; ++t) {
+    dist[t] = found[t].second;
+    bucket[t] = detail::FirstK::bucket(dist[t], r2, scale, buckets);
+  }
+  if (!first.sort(dist, bucket, buckets, kk)) return false;
+  for (int j = 0; j < kk; ++j) {
+    idx[j] = found[first[size_t(j)]].first;
+    d2[j] = dist[first[size_t(j)]];
+  }
   return true;
 }
 
@@ -224,6 +181,23 @@ size_t knn_search(const TreeT& tree, const float* q, int kk, uint32_t* idx, floa
   return found;
 }
 
+/// Row `out` of the tables from the kk nearest (leaf positions idx, squared distances d2) of
+/// the point at leaf position p, self first: exact duplicates can put another point first, and
+/// p then moves to column 0 (replacing the last when it is lost among more than kk copies).
+void write_row(const std::vector<uint32_t>& original, uint32_t p, int kk, const uint32_t* idx,
+               const float* d2, Eigen::Index out, IndexMatrix& indices,
+               DistanceMatrix* sq_distances) {
+  const int self = int(std::find(idx, idx + kk, p) - idx);
+  const int skip = std::min(self, kk - 1);  // the column that p's own entry leaves
+  indices(out, 0) = int32_t(original[p]);
+  for (int j = 0, col = 1; j < kk && col < kk; ++j)
+    if (j != skip) indices(out, col++) = int32_t(original[idx[j]]);
+  if (!sq_distances) return;
+  (*sq_distances)(out, 0) = 0.f;
+  for (int j = 0, col = 1; j < kk && col < kk; ++j)
+    if (j != skip) (*sq_distances)(out, col++) = d2[j];
+}
+
 // One kNN query of the point at leaf position p, self first; writes row `out` of the tables.
 template <class TreeT>
 void query_row(const TreeT& tree, const FloatCloud& cloud, const std::vector<uint32_t>& original,
@@ -233,22 +207,26 @@ void query_row(const TreeT& tree, const FloatCloud& cloud, const std::vector<uin
   thread_local std::vector<float> d2;
   idx.resize(kk);
   d2.resize(kk);
-  const float* q = &cloud.xyz[3 * p];
-  const size_t found = knn_search(tree, q, kk, idx.data(), d2.data());
-  (void)found;
-  // Exact duplicates can put another point first: make the query point column 0.
-  if (idx[0] != uint32_t(p)) {
-    auto it = std::find(idx.begin(), idx.end(), uint32_t(p));
-    if (it == idx.end()) it = idx.end() - 1;  // p lost among > k duplicates: replace the last
-    std::rotate(idx.begin(), it, it + 1);
-    std::rotate(d2.begin(), d2.begin() + (it - idx.begin()), d2.begin() + (it - idx.begin()) + 1);
-    idx[0] = uint32_t(p);
-    d2[0] = 0.f;
-  }
-  for (int j = 0; j < kk; ++j) indices(out, j) = int32_t(original[idx[j]]);
-  if (sq_distances)
-    for (int j = 0; j < kk; ++j) (*sq_distances)(out, j) = d2[j];
+  knn_search(tree, &cloud.xyz[3 * p], kk, idx.data(), d2.data());
+  write_row(original, uint32_t(p), kk, idx.data(), d2.data(), out, indices, sq_distances);
 }
+
+// From this many neighbours on, knn_all searches one leaf at a time (leaf_batch.hpp); below it
+// a leaf's shared candidates save no time over nanoflann's own k-NN search (measured at k = 18;
+// docs/design/decisions.md#k-nn-one-leaf-at-a-time).
+constexpr int kLeafBatchFrom = 24;
+
+/// knn_all one leaf at a time: the rows of leaf `leaf`'s points; `radius` carries each thread's
+/// guess of the k-th distance from leaf to leaf (0: none yet, taken from a search of the leaf's
+/// first point).
+struct TreeView {
+  const Tree& tree;
+  const FloatCloud& cloud;
+  const detail::TreeShape& shape;
+  const std::vector<uint32_t>& original;
+};
+void leaf_rows(const TreeView& impl, size_t leaf, int kk, float& radius, IndexMatrix& indices,
+               DistanceMatrix* sq_distances);
 }  // namespace
 
 void Neighbors::knn_all(int k, IndexMatrix& indices, DistanceMatrix* sq_distances,
@@ -261,12 +239,49 @@ void Neighbors::knn_all(int k, IndexMatrix& indices, DistanceMatrix* sq_distance
   detail::Progress progress(run.progress);
   if (run.progress) progress.stage("neighbours", 0, 1);
   const std::vector<uint32_t>& original = impl_->original;
+  detail::Progress* shown = run.progress ? &progress : nullptr;
+  if (kk >= kLeafBatchFrom) {
+    const int64_t leaves = int64_t(impl_->shape.leaf_start.size()) - 1;
+    std::vector<float> radius(size_t(detail::thread_count(run.threads)), 0.f);
+    const TreeView view{*impl_->tree, impl_->cloud, impl_->shape, original};
+    detail::parallel_for(leaves, run.threads, shown, [&](int64_t leaf) {
+      leaf_rows(view, size_t(leaf), kk, radius[size_t(omp_get_thread_num())], indices,
+                sq_distances);
+    });
+    return;
+  }
   // Queries in leaf order (p): consecutive queries walk the same nodes and leaves.
-  detail::parallel_for(n, run.threads, run.progress ? &progress : nullptr, [&](int64_t p) {
+  detail::parallel_for(n, run.threads, shown, [&](int64_t p) {
     query_row(*impl_->tree, impl_->cloud, original, p, kk, Eigen::Index(original[size_t(p)]),
               indices, sq_distances);
   });
 }
+
+namespace {
+void leaf_rows(const TreeView& impl, size_t leaf, int kk, float& radius, IndexMatrix& indices,
+               DistanceMatrix* sq_distances) {
+  thread_local detail::LeafBatch batch;
+  const uint32_t a = impl.shape.leaf_start[leaf], b = impl.shape.leaf_start[leaf + 1];
+  if (!(radius > 0)) {
+    thread_local std::vector<uint32_t> idx;
+    thread_local std::vector<float> d2;
+    idx.resize(size_t(kk));
+    d2.resize(size_t(kk));
+    knn_search(impl.tree, &impl.cloud.xyz[3 * size_t(a)], kk, idx.data(), d2.data());
+    radius = std::sqrt(d2[size_t(kk) - 1]) * 1.1f;
+  }
+  if (radius > 0 && batch.run(impl.tree, impl.cloud, impl.shape, leaf, kk, radius)) {
+    for (uint32_t p = a; p < b; ++p)
+      write_row(impl.original, p, kk, batch.indices(p - a), batch.distances(p - a),
+                Eigen::Index(impl.original[p]), indices, sq_distances);
+    return;
+  }
+  radius = 0;  // start afresh at the next leaf
+  for (uint32_t p = a; p < b; ++p)
+    query_row(impl.tree, impl.cloud, impl.original, p, kk, Eigen::Index(impl.original[p]), indices,
+              sq_distances);
+}
+}  // namespace
 
 void Neighbors::knn_rows(int k, const std::vector<int64_t>& rows, IndexMatrix& indices,
                          DistanceMatrix* sq_distances, const RunContext& run) const {

@@ -1,0 +1,157 @@
+// The k nearest neighbours of one kd-tree leaf's points from one shared radius search
+// (leaf_batch.hpp), and the tree's shape that orders their equal distances (kdtree.hpp).
+#include "neighbors/leaf_batch.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace nhnet::detail {
+
+namespace {
+
+int32_t add_node(const Tree::Node* node, TreeShape& shape, uint32_t& first) {
+  const int32_t id = int32_t(shape.nodes.size());
+  shape.nodes.emplace_back();
+  if (node->child1 == nullptr && node->child2 == nullptr) {
+    first = uint32_t(node->node_type.lr.left);
+    shape.leaf_start.push_back(first);
+    return id;
+  }
+  uint32_t first2 = 0;
+  const int32_t c1 = add_node(node->child1, shape, first);
+  const int32_t c2 = add_node(node->child2, shape, first2);
+  TreeShape::Node& out = shape.nodes[size_t(id)];
+  out.child1 = c1;
+  out.child2 = c2;
+  out.divfeat = node->node_type.sub.divfeat;
+  out.divlow = node->node_type.sub.divlow;
+  out.divhigh = node->node_type.sub.divhigh;
+  out.boundary = first2;
+  return id;
+}
+
+/// The mean of positions [a, b) into centre, and the largest distance from it to one of them.
+double leaf_ball(const FloatCloud& cloud, uint32_t a, uint32_t b, float* centre) {
+  double sum[3] = {0, 0, 0};
+  for (uint32_t p = a; p < b; ++p)
+    for (int d = 0; d < 3; ++d) sum[d] += cloud.xyz[3 * size_t(p) + d];
+  for (int d = 0; d < 3; ++d) centre[d] = float(sum[d] / double(b - a));
+  double rho2 = 0;
+  for (uint32_t p = a; p < b; ++p) {
+    double s = 0;
+    for (int d = 0; d < 3; ++d) {
+      const double v = double(cloud.xyz[3 * size_t(p) + d]) - double(centre[d]);
+      s += v * v;
+    }
+    rho2 = std::max(rho2, s);
+  }
+  return std::sqrt(rho2);
+}
+
+constexpr int kWidenings = 8;        // then the caller searches point by point
+constexpr float kWiden = 1.5f;       // radius factor per widening
+constexpr float kNextGuess = 1.1f;   // next leaf's guess: this x the largest k-th distance
+constexpr double kMargin = 1e-3;     // relative, on the candidates' radius: float rounding
+
+}  // namespace
+
+TreeShape tree_shape(const Tree& tree, uint32_t points) {
+  TreeShape shape;
+  uint32_t first = 0;
+  if (tree.root_node) add_node(tree.root_node, shape, first);
+  shape.leaf_start.push_back(points);
+  return shape;
+}
+
+bool visits_before(const TreeShape& shape, const float* q, uint32_t a, uint32_t b) {
+  int32_t id = 0;
+  while (shape.nodes[size_t(id)].child1 >= 0) {
+    const TreeShape::Node& node = shape.nodes[size_t(id)];
+    const bool a2 = a >= node.boundary, b2 = b >= node.boundary;
+    if (a2 != b2) {  // split here: nanoflann enters child1 first iff (diff1 + diff2) < 0
+      const float val = q[node.divfeat];
+      const float diff1 = val - node.divlow, diff2 = val - node.divhigh;
+      return (diff1 + diff2) < 0 ? !a2 : a2;
+    }
+    id = a2 ? node.child2 : node.child1;
+  }
+  return a < b;  // one leaf: in position order
+}
+
+bool LeafBatch::run(const Tree& tree, const FloatCloud& cloud, const TreeShape& shape, size_t leaf,
+                    int kk, float& radius) {
+  const uint32_t a = shape.leaf_start[leaf], b = shape.leaf_start[leaf + 1];
+  kk_ = kk;
+  idx_.resize(size_t(b - a) * size_t(kk));
+  d2_.resize(idx_.size());
+  float centre[3];
+  const double rho = leaf_ball(cloud, a, b, centre);
+  for (int attempt = 0; attempt < kWidenings; ++attempt, radius *= kWiden) {
+    const double reach = (double(radius) + rho) * (1 + kMargin);
+    gather(tree, cloud, centre, float(reach * reach));
+    const float r2 = radius * radius;
+    bool all = true;
+    for (uint32_t p = a; p < b && all; ++p) all = select(cloud, shape, p, r2, p - a);
+    if (!all) continue;
+    float far = 0;
+    for (size_t t = 0; t < size_t(b - a); ++t) far = std::max(far, distances(t)[kk - 1]);
+    radius = std::sqrt(far) * kNextGuess;
+    return true;
+  }
+  return false;
+}
+
+/// Every point within sqrt(r2) of centre, as candidates in columns (x_, y_, z_) for select().
+void LeafBatch::gather(const Tree& tree, const FloatCloud& cloud, const float* centre, float r2) {
+  around_.clear();
+  nanoflann::RadiusResultSet<float, uint32_t> set(r2, around_);
+  tree.findNeighbors(set, centre, nanoflann::SearchParams(32, 0.f, false));
+  const size_t n = around_.size();
+  pos_.resize(n);
+  x_.resize(n);
+  y_.resize(n);
+  z_.resize(n);
+  dist_.resize(n);
+  bucket_.resize(n);
+  for (size_t j = 0; j < n; ++j) {
+    const uint32_t p = around_[j].first;
+    pos_[j] = p;
+    x_[j] = cloud.xyz[3 * size_t(p)];
+    y_[j] = cloud.xyz[3 * size_t(p) + 1];
+    z_[j] = cloud.xyz[3 * size_t(p) + 2];
+  }
+}
+
+/// Query p (t-th of its leaf): its first kk candidates strictly within sqrt(r2) by (distance,
+/// visit) into row t; false when fewer than kk lie within. The candidates go straight into
+/// buckets of the distance over [0, r2) (bucket `buckets` for those outside), as FirstK.
+bool LeafBatch::select(const FloatCloud& cloud, const TreeShape& shape, uint32_t p, float r2,
+                       size_t t) {
+  const float* q = &cloud.xyz[3 * size_t(p)];
+  const size_t n = pos_.size();
+  const int buckets = std::max(64, int(std::min<size_t>(n, 4096)));
+  const float scale = float(buckets) / r2;
+  for (size_t j = 0; j < n; ++j) {  // tree_distance() on columns, so that it vectorises
+    const float dx = q[0] - x_[j], dy = q[1] - y_[j], dz = q[2] - z_[j];
+    float d = 0.f;
+    d += dx * dx;
+    d += dy * dy;
+    d += dz * dz;
+    dist_[j] = d;
+  }
+  for (size_t j = 0; j < n; ++j) bucket_[j] = FirstK::bucket(dist_[j], r2, scale, buckets);
+  if (!order_.sort(dist_, bucket_, buckets, kk_)) return false;
+  order_.order_ties(dist_, kk_, [&](uint32_t u, uint32_t v) {
+    return visits_before(shape, q, pos_[u], pos_[v]);
+  });
+  uint32_t* idx = idx_.data() + t * size_t(kk_);
+  float* d2 = d2_.data() + t * size_t(kk_);
+  for (int j = 0; j < kk_; ++j) {
+    const uint32_t c = order_[size_t(j)];
+    idx[j] = pos_[c];
+    d2[j] = dist_[c];
+  }
+  return true;
+}
+
+}  // namespace nhnet::detail
