@@ -17,6 +17,8 @@ namespace nhnet::detail {
 /// selection and a sort of k (which dominated the search at k = 250 in a perf profile).
 class FirstK {
  public:
+  /// Buckets for n items: about one each, within [64, 4096].
+  static int bucket_count(size_t n) { return std::max(64, int(std::min<size_t>(n, 4096))); }
   /// The bucket of squared distance d among `buckets` over [0, r2): `buckets` when d >= r2.
   /// (Branch-free, so that a loop over the items vectorises.)
   static int bucket(float d, float r2, float scale, int buckets) {

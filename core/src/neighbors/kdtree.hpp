@@ -43,8 +43,8 @@ struct TreeShape {
     float divlow = 0, divhigh = 0;     // the split values nanoflann compares the query with
     uint32_t boundary = 0;             // first position of child2's subtree
   };
-  std::vector<Node> nodes;            // nodes[0]: the root
-  std::vector<uint32_t> leaf_start;   // leaf l holds positions [leaf_start[l], leaf_start[l + 1])
+  std::vector<Node> nodes;           // nodes[0]: the root
+  std::vector<uint32_t> leaf_start;  // leaf l holds positions [leaf_start[l], leaf_start[l + 1])
 };
 
 /// The shape of a built tree whose index array is the identity (leaf order).

@@ -34,8 +34,8 @@ class LeafBatch {
   int kk_ = 0;
   std::vector<std::pair<uint32_t, float>> around_;  // the radius search's hits around the centre
   std::vector<uint32_t> pos_;                       // candidates: positions and coordinates
-  std::vector<float> x_, y_, z_, dist_;  // and each candidate's distance to the query
-  std::vector<int> bucket_;               // and its bucket (FirstK)
+  std::vector<float> x_, y_, z_, dist_;             // and each candidate's distance to the query
+  std::vector<int> bucket_;                         // and its bucket (FirstK)
   FirstK order_;
   std::vector<uint32_t> idx_;
   std::vector<float> d2_;

@@ -142,7 +142,7 @@ bool knn_by_radius(const TreeT& tree, const float* q, int kk, float r2, uint32_t
   tree.findNeighbors(set, q, nanoflann::SearchParams(32, 0.f, false));
   const size_t n = found.size();
   if (n < size_t(kk)) return false;
-  const int buckets = std::max(64, int(std::min<size_t>(n, 4096)));
+  const int buckets = detail::FirstK::bucket_count(n);
   const float scale = float(buckets) / r2;
   dist.resize(n);
   bucket.resize(n);
