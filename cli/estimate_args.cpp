@@ -70,7 +70,10 @@ void add_method_options(CLI::App* sub, EstimateArgs& a) {
   sub->add_option("--tile-points", a.tile_points,
                   "Clouds with more points are processed in spatial tiles of at most N points "
                   "with overlapping halos: same normals, memory bounded by one tile; 0 = never " +
-                      default_note(std::to_string(core.tiles.points)))
+                      default_note(std::to_string(core.tiles.points) +
+                                   ", and only when the estimate in one piece would take more "
+                                   "than " +
+                                   std::to_string(core.tiles.memory >> 30) + " GiB"))
       ->type_name("N");
 }
 
@@ -145,7 +148,10 @@ Setup prepare(const EstimateArgs& a) {
   if (!a.k.empty()) opt.k = parse_int("--k", a.k, 3);
   opt.mfps.scales = parse_scales(a.scales);
   opt.run.threads = parse_int("--threads", a.threads, 0);
-  opt.tiles.points = parse_int("--tile-points", a.tile_points, 0);
+  if (!a.tile_points.empty()) {  // tiles of that size whatever the memory they save
+    opt.tiles.points = parse_int("--tile-points", a.tile_points, 0);
+    opt.tiles.memory = 0;
+  }
   if (opt.tiles.points > 0 && opt.tiles.points < 1000)
     throw nhnet::InvalidOptions("--tile-points must be 0 (no tiles) or at least 1000, got " +
                                 a.tile_points);

@@ -27,8 +27,8 @@ struct EstimateArgs {
   std::string k;       ///< empty = auto
   std::string scales = scales_text(nhnet::EstimateOptions{}.mfps.scales);
   std::string threads = std::to_string(nhnet::EstimateOptions{}.run.threads);
-  std::string tile_points = std::to_string(nhnet::EstimateOptions{}.tiles.points);
-  std::string orient;  ///< empty = auto (nhnet::kDefaultOrientMode, resolved per input)
+  std::string tile_points;  ///< empty = the core's tiles (TileOptions: points and memory)
+  std::string orient;       ///< empty = auto (nhnet::kDefaultOrientMode, resolved per input)
   std::string seed = std::to_string(nhnet::EstimateOptions{}.mfps.seed);
   std::string model;                                           ///< empty = the shipped model
   std::string device = nhnet::EstimateOptions{}.model.device;  ///< NH-Net device

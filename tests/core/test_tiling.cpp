@@ -32,8 +32,10 @@ double share_differing(const EstimateResult& a, const EstimateResult& b, double 
   return double(bad) / double(e.size());
 }
 
-EstimateResult run(const Points& p, EstimateOptions o, int64_t tile_points) {
+// Tiles of `tile_points` (0: none); memory 0 tiles whatever the memory they save.
+EstimateResult run(const Points& p, EstimateOptions o, int64_t tile_points, int64_t memory = 0) {
   o.tiles.points = tile_points;
+  o.tiles.memory = memory;
   o.run.threads = 2;
   return estimate_normals(p, o);
 }
@@ -65,6 +67,29 @@ TEST(Tiling, MfpsTilesEqualTheUntiledRun) {
   const double ew = angle_stats(whole.normals, f.normals).mean;
   const double et = angle_stats(tiled.normals, f.normals).mean;
   EXPECT_NEAR(et, ew, 0.05);
+}
+
+// Over `points` but within the memory budget (TileOptions::memory) a cloud stays in one piece,
+// after the tiling's noise probe: exactly the untiled run's normals and sizes. A budget the
+// estimate exceeds (30 000 points need several MB; 1 MiB here) tiles it as before.
+TEST(Tiling, InOnePieceWhileTheMemoryBudgetHolds) {
+  const auto f = fixtures::cube(30000, 0.004, 11);
+  EstimateOptions o;
+  o.method = Method::Mfps;
+  const EstimateResult whole = run(f.points, o, 0);
+  const EstimateResult fits = run(f.points, o, 8000, EstimateOptions{}.tiles.memory);  // GiB
+  EXPECT_EQ(fits.tiles, 1);
+  EXPECT_EQ(fits.k_used, whole.k_used);
+  EXPECT_EQ(fits.scales_used, whole.scales_used);
+  EXPECT_EQ(fits.noise_ratio, whole.noise_ratio);
+  EXPECT_EQ(fits.spacing, whole.spacing);
+  EXPECT_EQ(fits.candidates, whole.candidates);
+  ASSERT_EQ(fits.valid, whole.valid);
+  for (Eigen::Index i = 0; i < f.points.rows(); ++i)
+    if (whole.valid[size_t(i)]) {
+      ASSERT_EQ(fits.normals.row(i), whole.normals.row(i)) << i;
+    }
+  EXPECT_EQ(run(f.points, o, 8000, int64_t(1) << 20).tiles, 4);
 }
 
 // Too small a halo must show: with a halo of a tenth of a neighbourhood radius the points at the
@@ -113,6 +138,7 @@ TEST(Tiling, ProgressReachesOneAndCancelStops) {
   EstimateOptions o;
   o.method = Method::Mfps;
   o.tiles.points = 4000;
+  o.tiles.memory = 0;
   o.run.threads = 2;
   double last = -1;
   bool monotone = true;

@@ -208,7 +208,24 @@ void merge_tile(const EstimateResult& tr, const std::vector<int64_t>& rows, int3
       res.warnings.push_back(w);
 }
 
+/// The untiled estimate after the tiling's probe (whose noise and spacing it takes, in input
+/// units: the same sizes as its own probe would choose).
+EstimateResult in_one_piece(const Points& points, const EstimateOptions& options, TileOverrides ov,
+                            double unit) {
+  ov.spacing *= unit;
+  EstimateOptions o = options;
+  o.run = narrow(options.run, 0.04, 1.0);
+  return estimate_cloud(points, o, ov);
+}
+
 }  // namespace
+
+int64_t untiled_bytes(int64_t m, int kneed, Method method) {
+  const PointBytes b = method == Method::NhNet  ? kNhNetBytes
+                       : method == Method::Mfps ? kMfpsBytes
+                                                : kPcaBytes;
+  return int64_t(double(m) * (b.fixed + b.per_column * double(kneed)));
+}
 
 EstimateResult estimate_tiled(const Points& points, const EstimateOptions& options) {
   start_threads(options.run.threads);
@@ -226,15 +243,18 @@ EstimateResult estimate_tiled(const Points& points, const EstimateOptions& optio
   const Probe probe = probe_noise(pts, Neighbors(pts), narrow(run, 0.01, 0.04), nullptr);
   top.throw_if_cancelled();
   const TileSizes sizes = tile_sizes(probe, options, int64_t(pts.rows()));
-  const double halo = sizes.estimate_halo(options);
-  const Tiles tiles = cut_tiles(pts, options.tiles.points);
-
-  EstimateOptions o = options;
   TileOverrides ov;
   if (need_probe) {
     ov.noise_ratio = probe.noise.ratio;
     ov.spacing = probe.noise.spacing;  // tiles are given normalised coordinates
   }
+  if (options.tiles.memory > 0 &&
+      untiled_bytes(int64_t(pts.rows()), sizes.kneed, options.method) <= options.tiles.memory)
+    return in_one_piece(points, options, ov, canon.unit);
+  const double halo = sizes.estimate_halo(options);
+  const Tiles tiles = cut_tiles(pts, options.tiles.points);
+
+  EstimateOptions o = options;
   if (options.method == Method::NhNet)  // loaded once for all tiles
     o.model.loaded = model_for(options.model, options.run.threads);
   const double span1 = options.method == Method::Pca ? 0.0 : 0.15;

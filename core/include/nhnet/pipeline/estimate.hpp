@@ -36,12 +36,19 @@ const char* refine_name(bool refine_all);
 Method default_method(std::string* fallback_why = nullptr);
 
 /// Spatial tiles (not in the paper; tiling.cpp): a cloud with more finite points than `points`
-/// is processed in tiles of at most that many points, each with a halo of the points around it,
-/// so memory is bounded by one tile whatever the cloud's size; results equal the untiled run's up
-/// to rounding (tested).
+/// whose estimate in one piece would need more than `memory` bytes is processed in tiles of at
+/// most `points` points, each with a halo of the points around it, so memory is bounded by one
+/// tile whatever the cloud's size; results equal the untiled run's up to rounding (tested).
 struct TileOptions {
   /// Most points per tile; 0 = never tile.
   int64_t points = 1000000;
+  /// In memory: a cloud over `points` stays in one piece while the untiled estimate's peak,
+  /// estimated from the method and the noise-driven neighbourhood size (untiled_bytes() in
+  /// tiling.cpp), fits in this many bytes: in one piece it is faster (3M clean points, mfps:
+  /// a third less time, docs/design/decisions.md#tiles-only-beyond-a-memory-budget). 3 GiB keeps
+  /// every 10M-point cloud tiled (at least 392 bytes a point in one piece). 0 = tile every cloud
+  /// over `points` (what an explicit --tile-points asks for). Streamed runs always tile.
+  int64_t memory = int64_t(3) << 30;
   /// Halo width around each tile, in radii of the largest neighbourhood the stages use: NH-Net's
   /// descriptors of MFPS normals reach 3; MFPS's kernel widths average residuals of patches up
   /// to about 4 radii away, of which 4 cuts only the farthest (tiled = untiled up to rounding,
