@@ -22,6 +22,9 @@
 #include <limits>
 #include <memory>
 #include <set>
+#include <string>
+#include <utility>
+#include <vector>
 
 namespace nhnet::detail {
 
@@ -232,9 +235,8 @@ EstimateResult estimate_tiled(const Points& points, const EstimateOptions& optio
   const RunContext& run = options.run;
   Progress top(run.progress);
   if (run.progress) top.stage("tiling", 0, 0.01);
-  EstimateResult res = empty_result(points.rows());
-  if (options.method != Method::Pca) res.candidate.assign(size_t(points.rows()), 0);
-  const Canonical canon = canonical_points(points, res.warnings);
+  std::vector<std::string> warnings;
+  Canonical canon = canonical_points(points, warnings);
   const Points& pts = canon.pts;
 
   // The whole cloud's noise probe: the untiled run's (same canonical points, same frame).
@@ -249,8 +251,14 @@ EstimateResult estimate_tiled(const Points& points, const EstimateOptions& optio
     ov.spacing = probe.noise.spacing;  // tiles are given normalised coordinates
   }
   if (options.tiles.memory > 0 &&
-      untiled_bytes(int64_t(pts.rows()), sizes.kneed, options.method) <= options.tiles.memory)
-    return in_one_piece(points, options, ov, canon.unit);
+      untiled_bytes(int64_t(pts.rows()), sizes.kneed, options.method) <= options.tiles.memory) {
+    const double unit = canon.unit;
+    canon = Canonical{};  // the untiled run makes its own
+    return in_one_piece(points, options, ov, unit);
+  }
+  EstimateResult res = empty_result(points.rows());
+  res.warnings = std::move(warnings);
+  if (options.method != Method::Pca) res.candidate.assign(size_t(points.rows()), 0);
   const double halo = sizes.estimate_halo(options);
   const Tiles tiles = cut_tiles(pts, options.tiles.points);
 
