@@ -40,6 +40,15 @@ EstimateResult run(const Points& p, EstimateOptions o, int64_t tile_points, int6
   return estimate_normals(p, o);
 }
 
+// The whole cloud's decisions, which a tiled run hands every tile: sizes, noise, spacing
+// (exactly: the same probe of the same canonical points).
+void expect_same_decisions(const EstimateResult& a, const EstimateResult& b) {
+  EXPECT_EQ(a.k_used, b.k_used);
+  EXPECT_EQ(a.scales_used, b.scales_used);
+  EXPECT_EQ(a.noise_ratio, b.noise_ratio);
+  EXPECT_EQ(a.spacing, b.spacing);
+}
+
 }  // namespace
 
 // The cube's 4 tiles cut through faces and edges; each tile gets the whole cloud's noise level,
@@ -56,10 +65,7 @@ TEST(Tiling, MfpsTilesEqualTheUntiledRun) {
   const EstimateResult tiled = run(f.points, o, 8000);
   EXPECT_EQ(whole.tiles, 1);
   EXPECT_EQ(tiled.tiles, 4);
-  EXPECT_EQ(tiled.k_used, whole.k_used);
-  EXPECT_EQ(tiled.scales_used, whole.scales_used);
-  EXPECT_DOUBLE_EQ(tiled.noise_ratio, whole.noise_ratio);
-  EXPECT_DOUBLE_EQ(tiled.spacing, whole.spacing);
+  expect_same_decisions(tiled, whole);
   EXPECT_EQ(tiled.failed, whole.failed);
   EXPECT_GT(whole.candidates, 1000);
   EXPECT_NEAR(double(tiled.candidates), double(whole.candidates), 0.001 * 30000);
@@ -79,10 +85,7 @@ TEST(Tiling, InOnePieceWhileTheMemoryBudgetHolds) {
   const EstimateResult whole = run(f.points, o, 0);
   const EstimateResult fits = run(f.points, o, 8000, EstimateOptions{}.tiles.memory);  // GiB
   EXPECT_EQ(fits.tiles, 1);
-  EXPECT_EQ(fits.k_used, whole.k_used);
-  EXPECT_EQ(fits.scales_used, whole.scales_used);
-  EXPECT_EQ(fits.noise_ratio, whole.noise_ratio);
-  EXPECT_EQ(fits.spacing, whole.spacing);
+  expect_same_decisions(fits, whole);
   EXPECT_EQ(fits.candidates, whole.candidates);
   ASSERT_EQ(fits.valid, whole.valid);
   for (Eigen::Index i = 0; i < f.points.rows(); ++i)
