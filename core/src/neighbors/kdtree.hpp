@@ -24,17 +24,6 @@ struct FloatCloud {
 using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, FloatCloud>,
                                                  FloatCloud, 3, uint32_t>;
 
-/// Squared distance as nanoflann's L2_Simple_Adaptor computes it (float, the query minus the
-/// point, summed x, y, z in that order), so that equal distances stay equal.
-inline float tree_distance(const float* q, const float* p) {
-  const float dx = q[0] - p[0], dy = q[1] - p[1], dz = q[2] - p[2];
-  float d = 0.f;
-  d += dx * dx;
-  d += dy * dy;
-  d += dz * dz;
-  return d;
-}
-
 /// The tree's nodes in a flat array, and its leaves as ranges of leaf-order positions.
 struct TreeShape {
   struct Node {

@@ -48,10 +48,9 @@ double leaf_ball(const FloatCloud& cloud, uint32_t a, uint32_t b, float* centre)
   return std::sqrt(rho2);
 }
 
-constexpr int kWidenings = 8;       // then the caller searches point by point
-constexpr float kWiden = 1.5f;      // radius factor per widening
-constexpr float kNextGuess = 1.1f;  // next leaf's guess: this x the largest k-th distance
-constexpr double kMargin = 1e-3;    // relative, on the candidates' radius: float rounding
+constexpr int kWidenings = 8;     // then the caller searches point by point
+constexpr float kWiden = 1.5f;    // radius factor per widening
+constexpr double kMargin = 1e-3;  // relative, on the candidates' radius: float rounding
 
 }  // namespace
 
@@ -131,7 +130,10 @@ bool LeafBatch::select(const FloatCloud& cloud, const TreeShape& shape, uint32_t
   const size_t n = pos_.size();
   const int buckets = FirstK::bucket_count(n);
   const float scale = float(buckets) / r2;
-  for (size_t j = 0; j < n; ++j) {  // tree_distance() on columns, so that it vectorises
+  // Squared distances as nanoflann's L2_Simple_Adaptor computes them (float, the query minus
+  // the point, summed x, y, z in that order), so that equal distances stay equal; on columns,
+  // so that the loop vectorises.
+  for (size_t j = 0; j < n; ++j) {
     const float dx = q[0] - x_[j], dy = q[1] - y_[j], dz = q[2] - z_[j];
     float d = 0.f;
     d += dx * dx;

@@ -17,6 +17,8 @@ namespace nhnet::detail {
 
 class LeafBatch {
  public:
+  /// The guess of the next leaf's k-th distance: this x the largest k-th distance just found.
+  static constexpr float kNextGuess = 1.1f;
   /// The kk nearest of each point of leaf `leaf` of `shape`, nearest first. `radius` is the
   /// guess of the k-th distance (> 0), widened while some query has fewer than kk points
   /// within it, and on success set to the guess for the next leaf. False when a few widenings

@@ -216,15 +216,16 @@ void query_row(const TreeT& tree, const FloatCloud& cloud, const std::vector<uin
 // docs/design/decisions.md#k-nn-one-leaf-at-a-time).
 constexpr int kLeafBatchFrom = 24;
 
-/// knn_all one leaf at a time: the rows of leaf `leaf`'s points; `radius` carries each thread's
-/// guess of the k-th distance from leaf to leaf (0: none yet, taken from a search of the leaf's
-/// first point).
+/// What leaf_rows() reads of Neighbors::Impl.
 struct TreeView {
   const Tree& tree;
   const FloatCloud& cloud;
   const detail::TreeShape& shape;
   const std::vector<uint32_t>& original;
 };
+/// knn_all one leaf at a time: the rows of leaf `leaf`'s points; `radius` carries each thread's
+/// guess of the k-th distance from leaf to leaf (0: none yet, taken from a search of the leaf's
+/// first point).
 void leaf_rows(const TreeView& impl, size_t leaf, int kk, float& radius, IndexMatrix& indices,
                DistanceMatrix* sq_distances);
 }  // namespace
@@ -268,7 +269,7 @@ void leaf_rows(const TreeView& impl, size_t leaf, int kk, float& radius, IndexMa
     idx.resize(size_t(kk));
     d2.resize(size_t(kk));
     knn_search(impl.tree, &impl.cloud.xyz[3 * size_t(a)], kk, idx.data(), d2.data());
-    radius = std::sqrt(d2[size_t(kk) - 1]) * 1.1f;
+    radius = std::sqrt(d2[size_t(kk) - 1]) * detail::LeafBatch::kNextGuess;
   }
   if (radius > 0 && batch.run(impl.tree, impl.cloud, impl.shape, leaf, kk, radius)) {
     for (uint32_t p = a; p < b; ++p)

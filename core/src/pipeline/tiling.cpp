@@ -221,6 +221,15 @@ EstimateResult in_one_piece(const Points& points, const EstimateOptions& options
   return estimate_cloud(points, o, ov);
 }
 
+// untiled_bytes() per point: a fixed part and a part per column of the deepest neighbour table
+// (4 for the int32 table itself; NH-Net's descriptors take more), set to cover the peak resident
+// size of `nhnet-cli estimate --orient none` on 1M-point clouds, clean (k 12, table 51) and at
+// 0.6 % noise (k 250, table 300) (docs/design/decisions.md#tiles-only-beyond-a-memory-budget).
+struct PointBytes {
+  double fixed, per_column;
+};
+constexpr PointBytes kPcaBytes{392, 4}, kMfpsBytes{557, 4}, kNhNetBytes{912, 7};
+
 }  // namespace
 
 int64_t untiled_bytes(int64_t m, int kneed, Method method) {
