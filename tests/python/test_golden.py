@@ -6,6 +6,11 @@ size. Outputs are float32 in PLY files (one ulp ~6e-8 at 1), so the bound allows
 floating-point summation order in a refactor while any real change of a result (a different
 neighbour, a sign, a stage skipped) moves values by orders of magnitude more. NaN rows must
 stay NaN in the same places.
+
+Cases that run the network (names with "nhnet" or "default") allow 1e-5 (~6e-4 degrees):
+libtorch's oneDNN kernels choose their vector width at run time, and the expected outputs made
+on an AVX-512 host differ by up to 1.02e-6 on an AVX2-only host (measured 2026-12-04, every
+other case within 1e-6 there). A changed neighbour or sign still moves values by far more.
 """
 
 import sys
@@ -18,6 +23,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "golden"))
 import golden  # noqa: E402
 
 TOLERANCE = 1e-6
+NETWORK_TOLERANCE = 1e-5
+
+
+def tolerance(name):
+    return NETWORK_TOLERANCE if "nhnet" in name or "default" in name else TOLERANCE
 
 
 @pytest.fixture(scope="module")
@@ -43,4 +53,4 @@ def test_case_matches(results, expected, name):
     finite = ~np.isnan(want)
     diff = np.abs(got[finite] - want[finite])
     worst = float(diff.max()) if diff.size else 0.0
-    assert worst <= TOLERANCE, f"{name}: largest difference {worst:.3g} > {TOLERANCE}"
+    assert worst <= tolerance(name), f"{name}: largest difference {worst:.3g} > {tolerance(name)}"
