@@ -1,5 +1,6 @@
-// fast_math.hpp: the batched exp of MFPS's Gaussian kernels (paper Eq. 1) against std::exp, and
-// the smallest eigenvector of its 4-point planes (Eq. 2's samples) against Eigen's solver.
+// fast_math.hpp: the batched exp of MFPS's Gaussian kernels (paper Eq. 1) against std::exp, the
+// kernels of coordinate arrays against the per-point Eigen code, and the smallest eigenvector of
+// its 4-point planes (Eq. 2's samples) against Eigen's solver.
 #include "util/fast_math.hpp"
 
 #include <gtest/gtest.h>
@@ -68,6 +69,35 @@ TEST(FastExp, ClampsBelowTheNormalRangeAndKeepsNaN) {
   for (int i = 0; i < 3; ++i) EXPECT_NEAR(y[size_t(i)] / lowest, 1.0, 1e-14) << x[size_t(i)];
   EXPECT_TRUE(std::isnan(y[3]));
   EXPECT_TRUE(std::isnan(nhnet::detail::exp_nonpositive(x[3])));
+}
+
+TEST(PlaneKernels, EveryPathGivesThePerPointEigenBits) {
+  // MFPS's objective took exp(-r^2 / s^2) of r = (q - c).dot(n) point by point (Vector3d); the
+  // coordinate-array paths must give the same bits, so MFPS's planes and scores do not move.
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> g(0.0, 1.0);
+  for (size_t m : {size_t(1), size_t(3), size_t(4), size_t(5), size_t(48), size_t(301)}) {
+    std::vector<double> x(m), y(m), z(m);
+    for (size_t t = 0; t < m; ++t) {
+      x[t] = g(rng);
+      y[t] = g(rng);
+      z[t] = 0.05 * g(rng);
+    }
+    const Eigen::Vector3d c(0.01 * g(rng), 0.01 * g(rng), 0.02 * g(rng));
+    const Eigen::Vector3d n = Eigen::Vector3d(0.1 * g(rng), 0.1 * g(rng), 1.0).normalized();
+    const double inv_s2 = 1.0 / (0.03 * 0.03);
+    std::vector<double> base(m), fast(m);
+    nhnet::detail::plane_kernels_baseline(x.data(), y.data(), z.data(), m, c.data(), n.data(),
+                                          inv_s2, base.data());
+    nhnet::detail::plane_kernels(x.data(), y.data(), z.data(), m, c.data(), n.data(), inv_s2,
+                                 fast.data());
+    for (size_t t = 0; t < m; ++t) {
+      const double r = (Eigen::Vector3d(x[t], y[t], z[t]) - c).dot(n);
+      const double want = nhnet::detail::exp_nonpositive(-r * r * inv_s2);
+      ASSERT_EQ(std::memcmp(&want, &base[t], sizeof want), 0) << "baseline, m = " << m;
+      ASSERT_EQ(std::memcmp(&want, &fast[t], sizeof want), 0) << "dispatched, m = " << m;
+    }
+  }
 }
 
 namespace {

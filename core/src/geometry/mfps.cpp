@@ -79,22 +79,36 @@ bool four_point_plane(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const 
   return true;
 }
 
-/// E of Eq. 1 (mean Gaussian kernel of residuals) over members `idx` (all if null). With
-/// `terms` (all members only), the kernel of every member is stored there too: they are the
-/// IRLS weights of that plane, so the refinement does not recompute them.
-double objective(const std::vector<Eigen::Vector3d>& q, const Plane& pl, double inv_s2,
-                 const std::vector<int>* idx, double* terms = nullptr) {
-  thread_local std::vector<double> arg;
-  const size_t m = idx ? idx->size() : q.size();
-  arg.resize(m);
-  for (size_t t = 0; t < m; ++t) {
-    const double r = (q[idx ? size_t((*idx)[t]) : t] - pl.c).dot(pl.n);
-    arg[t] = -r * r * inv_s2;
+/// Points as three coordinate arrays (detail::plane_kernels' input).
+struct Coords {
+  std::vector<double> x, y, z;
+  size_t size() const { return x.size(); }
+  void resize(size_t m) {
+    x.resize(m);
+    y.resize(m);
+    z.resize(m);
   }
-  double* kernel = terms ? terms : arg.data();
-  detail::exp_nonpositive(arg.data(), kernel, m);
+  void set(size_t t, const Eigen::Vector3d& p) {
+    x[t] = p[0];
+    y[t] = p[1];
+    z[t] = p[2];
+  }
+};
+
+/// E of Eq. 1 (mean Gaussian kernel of residuals) over the points `q`. With `terms`, the
+/// kernel of every point is stored there too: over a whole patch they are the IRLS weights of
+/// that plane, so the refinement does not recompute them.
+double objective(const Coords& q, const Plane& pl, double inv_s2, double* terms = nullptr) {
+  thread_local std::vector<double> own;
+  const size_t m = q.size();
+  if (!terms) {
+    own.resize(m);
+    terms = own.data();
+  }
+  detail::plane_kernels(q.x.data(), q.y.data(), q.z.data(), m, pl.c.data(), pl.n.data(), inv_s2,
+                        terms);
   double e = 0;
-  for (size_t t = 0; t < m; ++t) e += kernel[t];
+  for (size_t t = 0; t < m; ++t) e += terms[t];
   return e / double(m);
 }
 
@@ -204,6 +218,8 @@ struct PatchPlanes {
 /// One thread's buffers for fitting patches, reused from patch to patch.
 struct PatchScratch {
   std::vector<Eigen::Vector3d> q;              // members relative to the centre, nearest first
+  Coords all;                                  // the same members as coordinate arrays
+  Coords scoring;                              // the members of the preemptive scoring
   std::vector<double> w;                       // unit weights of the fallback plane
   std::vector<int> subset;                     // members of the preemptive scoring
   std::vector<std::pair<double, int>> scored;  // (E on the subset, index in `cands`)
@@ -219,23 +235,25 @@ struct PatchFit {
   bool fallback = false;  // every sample was rejected
 };
 
-/// Members of the preemptive scoring of a patch of K: the centre plus `size` - 1 random members
-/// (null: all members, when size is 0 or >= K).
-const std::vector<int>* draw_score_subset(SplitMix& rng, int K, int size,
-                                          std::vector<int>& subset) {
+/// Members of the preemptive scoring of a patch of K: the centre plus `size` - 1 random members,
+/// copied to ps.scoring (null: all members, when size is 0 or >= K).
+const std::vector<int>* draw_score_subset(SplitMix& rng, int K, int size, PatchScratch& ps) {
   if (!(size > 0 && size < K)) return nullptr;
+  std::vector<int>& subset = ps.subset;
   subset.clear();
   subset.push_back(0);
   for (int t = 1; t < K; ++t) subset.push_back(t);
   for (int t = 1; t < size; ++t) std::swap(subset[size_t(t)], subset[size_t(t + rng.below(K - t))]);
   subset.resize(size_t(size));
+  ps.scoring.resize(size_t(size));
+  for (size_t t = 0; t < size_t(size); ++t) ps.scoring.set(t, ps.q[size_t(subset[t])]);
   return &subset;
 }
 
 /// `samples` random planes through the centre and 3 other members, scored by E (Eq. 1) on the
-/// scoring subset `sub`; a plane that misses the centre by more than sigma_j is rejected.
-void sample_planes(PatchScratch& ps, SplitMix& rng, int K, int samples, double sj, double inv_s2,
-                   const std::vector<int>* sub) {
+/// members `scoring`; a plane that misses the centre by more than sigma_j is rejected.
+void sample_planes(PatchScratch& ps, const Coords& scoring, SplitMix& rng, int K, int samples,
+                   double sj, double inv_s2) {
   const std::vector<Eigen::Vector3d>& q = ps.q;
   ps.scored.clear();
   ps.cands.clear();
@@ -248,7 +266,7 @@ void sample_planes(PatchScratch& ps, SplitMix& rng, int K, int samples, double s
     if (!four_point_plane(q[0], q[size_t(a)], q[size_t(b)], q[size_t(c)], pl)) continue;
     const double r0 = (q[0] - pl.c).dot(pl.n);
     if (r0 * r0 > sj * sj) continue;  // the plane must pass near the patch centre
-    ps.scored.emplace_back(objective(q, pl, inv_s2, sub), int(ps.cands.size()));
+    ps.scored.emplace_back(objective(scoring, pl, inv_s2), int(ps.cands.size()));
     ps.cands.push_back(pl);
   }
 }
@@ -257,7 +275,7 @@ void sample_planes(PatchScratch& ps, SplitMix& rng, int K, int samples, double s
 bool fallback_plane(PatchScratch& ps, int K, double inv_s2, PatchFit& fit) {
   ps.w.assign(size_t(K), 1.0);
   if (!weighted_plane(ps.q, ps.w.data(), fit.best)) return false;
-  fit.e = objective(ps.q, fit.best, inv_s2, nullptr, ps.best_w.data());
+  fit.e = objective(ps.all, fit.best, inv_s2, ps.best_w.data());
   fit.have_w = true;
   fit.fallback = true;
   return true;
@@ -274,8 +292,7 @@ void rescore_best(PatchScratch& ps, int rescore, double inv_s2, const std::vecto
                     });
   for (size_t t = 0; t < keep; ++t) {
     const Plane& pl = ps.cands[size_t(ps.scored[t].second)];
-    const double e =
-        sub ? objective(ps.q, pl, inv_s2, nullptr, ps.next_w.data()) : ps.scored[t].first;
+    const double e = sub ? objective(ps.all, pl, inv_s2, ps.next_w.data()) : ps.scored[t].first;
     if (e > fit.e) {
       fit.e = e;
       fit.best = pl;
@@ -290,12 +307,12 @@ void rescore_best(PatchScratch& ps, int rescore, double inv_s2, const std::vecto
 void refine_irls(PatchScratch& ps, int iterations, double inv_s2, PatchFit& fit) {
   for (int it = 0; it < iterations; ++it) {
     if (!fit.have_w) {
-      objective(ps.q, fit.best, inv_s2, nullptr, ps.best_w.data());
+      objective(ps.all, fit.best, inv_s2, ps.best_w.data());
       fit.have_w = true;
     }
     Plane next;
     if (!weighted_plane(ps.q, ps.best_w.data(), next)) break;
-    const double e = objective(ps.q, next, inv_s2, nullptr, ps.next_w.data());
+    const double e = objective(ps.all, next, inv_s2, ps.next_w.data());
     if (!(e > fit.e)) break;
     fit.e = e;
     fit.best = next;
@@ -312,8 +329,8 @@ bool fit_patch(PatchScratch& ps, int K, double sj, const MfpsOptions& options, P
   // translation, scale and point order (a seed from the point index is not: the core
   // processes points in a coordinate-sorted order), and independent of scheduling.
   SplitMix rng{options.seed * 0x9E3779B97F4A7C15ull ^ uint64_t(K)};
-  const std::vector<int>* sub = draw_score_subset(rng, K, options.score_subset, ps.subset);
-  sample_planes(ps, rng, K, options.samples, sj, inv_s2, sub);
+  const std::vector<int>* sub = draw_score_subset(rng, K, options.score_subset, ps);
+  sample_planes(ps, sub ? ps.scoring : ps.all, rng, K, options.samples, sj, inv_s2);
   ps.best_w.resize(size_t(K));
   ps.next_w.resize(size_t(K));
   if (ps.scored.empty()) {
@@ -342,7 +359,11 @@ PatchPlanes fit_patch_planes(const Inputs& in, const Scales& scales,
       if (first_cand[size_t(j)] >= K) continue;
       patches.fetch_add(1, std::memory_order_relaxed);
       ps.q.resize(size_t(K));
-      for (int t = 0; t < K; ++t) ps.q[size_t(t)] = in.points.row(in.knn(j, t)).transpose() - pj;
+      ps.all.resize(size_t(K));
+      for (int t = 0; t < K; ++t) {
+        ps.q[size_t(t)] = in.points.row(in.knn(j, t)).transpose() - pj;
+        ps.all.set(size_t(t), ps.q[size_t(t)]);
+      }
       PatchFit fit;
       if (!fit_patch(ps, K, in.sigma[j], in.options, fit)) continue;
       if (fit.fallback) fallbacks.fetch_add(1, std::memory_order_relaxed);

@@ -9,6 +9,12 @@
 // kernels can tell apart. NaN stays NaN. Two lanes at a time with SSE2 (baseline x86-64); the
 // scalar path is the same sequence of IEEE operations, so both give the same bits (no FMA: the
 // project builds for baseline x86-64, where the compiler cannot contract a * b + c).
+//
+// plane_kernels: exp(-r^2 / s^2) of the residuals r = (p - c) . n of points held as three
+// coordinate arrays, r summed in Eigen's order for a Vector3d dot, ((dx nx + dy ny) + dz nz), so
+// the kernels are those of the per-point Eigen code bit for bit. Four lanes at a time with AVX2
+// where the CPU has it (checked once at run time; still no FMA, so the same bits), else the
+// scalar residuals and the SSE2 exp above.
 #pragma once
 
 #include <Eigen/Core>
@@ -22,6 +28,10 @@
 
 #if defined(__SSE2__)
 #include <emmintrin.h>
+#endif
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#include <immintrin.h>
+#define NHNET_HAVE_AVX2_LANES 1
 #endif
 
 namespace nhnet::detail {
@@ -80,6 +90,74 @@ inline void exp_nonpositive(const double* x, double* y, size_t n) {
   }
 #endif
   for (; i < n; ++i) y[i] = exp_nonpositive(x[i]);
+}
+
+/// Plane residuals' Gaussian kernels (see the file comment), one lane per point: out[t] =
+/// exp(-r_t^2 inv_s2), r_t = (p_t - c) . n, p_t = (x[t], y[t], z[t]). Portable path.
+inline void plane_kernels_baseline(const double* x, const double* y, const double* z, size_t m,
+                                   const double* c, const double* n, double inv_s2, double* out) {
+  for (size_t t = 0; t < m; ++t) {
+    const double r = ((x[t] - c[0]) * n[0] + (y[t] - c[1]) * n[1]) + (z[t] - c[2]) * n[2];
+    out[t] = -r * r * inv_s2;
+  }
+  exp_nonpositive(out, out, m);
+}
+
+#if defined(NHNET_HAVE_AVX2_LANES)
+/// plane_kernels_baseline four lanes at a time (same IEEE operations per lane, no FMA); only
+/// for a CPU with AVX2 (has_avx2()).
+__attribute__((target("avx2"))) inline void plane_kernels_avx2(const double* x, const double* y,
+                                                               const double* z, size_t m,
+                                                               const double* c, const double* n,
+                                                               double inv_s2, double* out) {
+  namespace k = fast_exp_constants;
+  const __m256d cx = _mm256_set1_pd(c[0]), cy = _mm256_set1_pd(c[1]), cz = _mm256_set1_pd(c[2]);
+  const __m256d nx = _mm256_set1_pd(n[0]), ny = _mm256_set1_pd(n[1]), nz = _mm256_set1_pd(n[2]);
+  const __m256d neg_inv = _mm256_set1_pd(-inv_s2), lowest = _mm256_set1_pd(k::kLowest),
+                log2e = _mm256_set1_pd(k::kLog2e), shifter = _mm256_set1_pd(k::kShifter),
+                ln2hi = _mm256_set1_pd(k::kLn2Hi), ln2lo = _mm256_set1_pd(k::kLn2Lo),
+                one = _mm256_set1_pd(1.0);
+  const __m256i bias = _mm256_set1_epi64x(1023);
+  size_t t = 0;
+  for (; t + 4 <= m; t += 4) {
+    const __m256d r =
+        _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(_mm256_sub_pd(_mm256_loadu_pd(x + t), cx), nx),
+                                    _mm256_mul_pd(_mm256_sub_pd(_mm256_loadu_pd(y + t), cy), ny)),
+                      _mm256_mul_pd(_mm256_sub_pd(_mm256_loadu_pd(z + t), cz), nz));
+    // -r * r * inv_s2 == (r * r) * -inv_s2 exactly (rounding is symmetric in the sign).
+    const __m256d v = _mm256_max_pd(lowest, _mm256_mul_pd(_mm256_mul_pd(r, r), neg_inv));
+    __m256d kd = _mm256_add_pd(_mm256_mul_pd(v, log2e), shifter);
+    const __m256i bits = _mm256_castpd_si256(kd);
+    kd = _mm256_sub_pd(kd, shifter);
+    const __m256d e =
+        _mm256_sub_pd(_mm256_sub_pd(v, _mm256_mul_pd(kd, ln2hi)), _mm256_mul_pd(kd, ln2lo));
+    __m256d p = _mm256_set1_pd(k::kC[0]);
+    for (int i = 1; i < 10; ++i) p = _mm256_add_pd(_mm256_mul_pd(p, e), _mm256_set1_pd(k::kC[i]));
+    p = _mm256_add_pd(_mm256_mul_pd(_mm256_add_pd(_mm256_mul_pd(p, e), one), e), one);
+    const __m256d scale = _mm256_castsi256_pd(_mm256_slli_epi64(_mm256_add_epi64(bits, bias), 52));
+    _mm256_storeu_pd(out + t, _mm256_mul_pd(p, scale));
+  }
+  plane_kernels_baseline(x + t, y + t, z + t, m - t, c, n, inv_s2, out + t);
+}
+#endif
+
+/// Whether plane_kernels can take the AVX2 lanes (the CPU's answer, asked once).
+inline bool has_avx2() {
+#if defined(NHNET_HAVE_AVX2_LANES)
+  static const bool yes = __builtin_cpu_supports("avx2");
+  return yes;
+#else
+  return false;
+#endif
+}
+
+/// plane_kernels_baseline, four lanes at a time where the CPU has AVX2 (same bits).
+inline void plane_kernels(const double* x, const double* y, const double* z, size_t m,
+                          const double* c, const double* n, double inv_s2, double* out) {
+#if defined(NHNET_HAVE_AVX2_LANES)
+  if (has_avx2()) return plane_kernels_avx2(x, y, z, m, c, n, inv_s2, out);
+#endif
+  plane_kernels_baseline(x, y, z, m, c, n, inv_s2, out);
 }
 
 /// Smallest eigenvalue's unit eigenvector of a symmetric positive semi-definite 3 x 3 matrix `a`
