@@ -155,14 +155,17 @@ void estimate_in_memory(const EstimateArgs& a, const Setup& st, Outcome& o) {
   const bool mst = orient.mode == nhnet::OrientMode::Mst || orient.mode == nhnet::OrientMode::Up;
   const double est_end = mst ? 0.9 : 1.0;
   opt.run.progress = rep.callback(0.0, est_end);
+  opt.neighbours = nhnet::shared_neighbours(orient);  // the MST reuses the estimator's search
   nhnet::EstimateResult res = nhnet::estimate_normals(cloud.points, opt);
   rep.clear();
   for (const auto& w : res.warnings) rep.warn(w);
   throw_if_interrupted();
 
   orient.run.progress = rep.callback(est_end, 1.0);
+  nhnet::hand_neighbours(res, orient);
   const nhnet::OrientResult ores =
       nhnet::orient_normals(cloud.points, res.normals, orient, cloud.normals);
+  orient.neighbours.reset();
   rep.clear();
   warn_unoriented(rep, orient, ores);
   throw_if_interrupted();

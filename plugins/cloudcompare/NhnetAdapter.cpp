@@ -326,10 +326,14 @@ Outcome estimate_cloud_normals(ccPointCloud& cloud, const NormalsSettings& setti
   nhnet::OrientResult ores;
   run_with_progress(ui, [&](const nhnet::ProgressCallback& cb) {
     const double split = orienting ? 0.85 : 1.0;
-    res = run_estimate(in.points, p.options, narrow(cb, 0, split));
+    nhnet::EstimateOptions eo = p.options;
+    eo.neighbours = nhnet::shared_neighbours(orient);  // the MST reuses the estimator's search
+    res = run_estimate(in.points, eo, narrow(cb, 0, split));
     if (!orienting) return;
     orient.run.progress = narrow(cb, split, 1);
+    nhnet::hand_neighbours(res, orient);
     ores = nhnet::orient_normals(in.points, res.normals, orient, in.normals);
+    orient.neighbours.reset();
   });
   out.warnings << to_qt(res.warnings);
   if (ores.unoriented > 0)

@@ -441,12 +441,15 @@ void NhnetFilterPlugin::estimate(MeshModel& mm, const RichParameterList& par,
   runPolled(cb, [&](const nhnet::ProgressCallback& progress) {
     nhnet::EstimateOptions o = opt;
     o.run.progress = [&](double f, const std::string& s) { return progress(f * 0.85, s); };
+    o.neighbours = nhnet::shared_neighbours(plan.options);  // the MST reuses the search
     res = nhnet::estimate_normals(cloud.points, o);
     if (!orienting) return;
     plan.options.run.progress = [&](double f, const std::string& s) {
       return progress(0.85 + 0.15 * f, s);
     };
+    nhnet::hand_neighbours(res, plan.options);
     ores = nhnet::orient_normals(cloud.points, res.normals, plan.options, cloud.normals);
+    plan.options.neighbours.reset();
   });
 
   // Copy out: failed points get a zero normal (MeshLab's "no normal").

@@ -46,10 +46,13 @@ PyEstimateResult estimate(const py::handle& points, const std::optional<std::str
   out.orient_source = req.source;
   out.core = run_released(progress, [&](ProgressCallback cb) {
     opt.run.progress = std::move(cb);
+    opt.neighbours = shared_neighbours(req.options);  // the MST reuses the estimator's search
     EstimateResult res = estimate_normals(pts, opt);
     if (req.options.mode != OrientMode::None) {
       req.options.run.progress = opt.run.progress;
+      hand_neighbours(res, req.options);
       out.orient = orient_normals(pts, res.normals, req.options, req.reference);
+      req.options.neighbours.reset();
     }
     return res;
   });

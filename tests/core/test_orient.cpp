@@ -419,3 +419,97 @@ TEST(Orient, SidesLeakedStopsAtItsLimit) {
   EXPECT_LT(capped, full);
   EXPECT_EQ(sides_leaked(g.points, g.guides, grid, 0, full + 1), full);
 }
+
+namespace {
+
+/// The cube's MFPS normals with the estimator's neighbour table for the MST (shared_neighbours).
+EstimateResult estimate_sharing(const Points& points, const OrientOptions& orient) {
+  EstimateOptions eo;
+  eo.neighbours = shared_neighbours(orient);
+  return estimate_normals(points, eo);
+}
+
+}  // namespace
+
+TEST(Orient, MstOnTheEstimatorsNeighbourTableOrientsAsItsOwnSearch) {
+  const auto f = fixtures::cube(20000, 0.002, 44);
+  const OrientOptions own;
+  EXPECT_EQ(shared_neighbours(own), 50);  // max(k 18, guide_k 50)
+  EstimateResult res = estimate_sharing(f.points, own);
+  // The table: every point's 50 nearest, itself first, the same rows as a search of its own
+  // (the estimator searches a recentred copy; a tie could swap the last two, none does here).
+  ASSERT_EQ(res.neighbours.rows(), f.points.rows());
+  ASSERT_EQ(res.neighbours.cols(), 50);
+  const IndexMatrix searched = fixtures::knn_table(f.points, 50);
+  for (Eigen::Index i = 0; i < f.points.rows(); ++i) {
+    ASSERT_EQ(res.neighbours(i, 0), int32_t(i));
+    std::vector<int32_t> a(res.neighbours.row(i).data(), res.neighbours.row(i).data() + 50);
+    std::vector<int32_t> b(searched.row(i).data(), searched.row(i).data() + 50);
+    std::sort(a.begin(), a.end());
+    std::sort(b.begin(), b.end());
+    ASSERT_EQ(a, b) << "row " << i;
+  }
+  const Normals input = fixtures::random_signs(res.normals, 45);
+  Normals alone = input, shared = input;
+  const OrientResult ra = orient_normals(f.points, alone, own);
+  OrientOptions reuse = own;
+  hand_neighbours(res, reuse);
+  EXPECT_EQ(res.neighbours.size(), 0);
+  ASSERT_TRUE(reuse.neighbours);
+  const OrientResult rs = orient_normals(f.points, shared, reuse);
+  EXPECT_TRUE(shared == alone);  // the same signs, exactly
+  EXPECT_EQ(rs.flipped, ra.flipped);
+  EXPECT_EQ(rs.components, ra.components);
+  EXPECT_GT(agreement(shared, f.normals), 0.99);
+  // The table is what the graph is built on: rows of arbitrary other points give another
+  // (worse) orientation, so the test above did not pass by ignoring it.
+  IndexMatrix arbitrary(f.points.rows(), 50);
+  for (Eigen::Index i = 0; i < arbitrary.rows(); ++i)
+    for (Eigen::Index c = 0; c < 50; ++c)
+      arbitrary(i, c) = int32_t((i + 397 * c) % arbitrary.rows());
+  reuse.neighbours = std::make_shared<const IndexMatrix>(arbitrary);
+  Normals garbled = input;
+  orient_normals(f.points, garbled, reuse);
+  EXPECT_LT(agreement(garbled, f.normals), 0.9);
+}
+
+TEST(Orient, NoSharedTableForDuplicatesTilesOrOtherModes) {
+  auto f = fixtures::cube(3000, 0.002, 46);
+  OrientOptions mst;
+  EXPECT_GT(estimate_sharing(f.points, mst).neighbours.size(), 0);
+  // An exact copy: the estimator's rows are no longer one per point; none returned.
+  f.points.row(7) = f.points.row(8);
+  EXPECT_EQ(estimate_sharing(f.points, mst).neighbours.size(), 0);
+  f.points.row(7) = f.points.row(7) + Eigen::RowVector3d(1e-3, 0, 0);
+  // Tiled: a tile's table is not the cloud's.
+  EstimateOptions tiled;
+  tiled.neighbours = 50;
+  tiled.tiles.points = 1000;
+  tiled.tiles.memory = 0;
+  const EstimateResult t = estimate_normals(f.points, tiled);
+  EXPECT_GT(t.tiles, 1);
+  EXPECT_EQ(t.neighbours.size(), 0);
+  // Only the MST searches neighbours.
+  OrientOptions view;
+  view.mode = OrientMode::Viewpoint;
+  EXPECT_EQ(shared_neighbours(view), 0);
+  mst.smooth_guide = false;
+  EXPECT_EQ(shared_neighbours(mst), 18);
+}
+
+TEST(Orient, RefusesANeighbourTableOfOtherPoints) {
+  const auto f = fixtures::sphere(500, 47);
+  Normals n = f.normals;
+  OrientOptions o;
+  o.neighbours =
+      std::make_shared<const IndexMatrix>(fixtures::knn_table(f.points.topRows(400), 50));
+  EXPECT_THROW(orient_normals(f.points, n, o), InvalidOptions);  // rows of 400 points
+  IndexMatrix t = fixtures::knn_table(f.points, 50);
+  t(3, 5) = 500;  // no such point
+  o.neighbours = std::make_shared<const IndexMatrix>(t);
+  EXPECT_THROW(orient_normals(f.points, n, o), InvalidOptions);
+  t(3, 5) = 4;
+  t(3, 0) = 2;  // not its own row first
+  o.neighbours = std::make_shared<const IndexMatrix>(t);
+  EXPECT_THROW(orient_normals(f.points, n, o), InvalidOptions);
+}

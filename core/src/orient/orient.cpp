@@ -225,24 +225,34 @@ double guide_noise(const Points& pts, const Normals& guide, const Adjacency& adj
   return typical[typical.size() / 2];
 }
 
+/// OrientOptions::neighbours when it serves: `every_row` (pts are all the caller's points, in
+/// their order) and at least `depth` columns; else null.
+const IndexMatrix* given_table(const OrientOptions& options, bool every_row, int depth) {
+  const IndexMatrix* t = options.neighbours.get();
+  return t && every_row && t->cols() >= depth ? t : nullptr;
+}
+
 /// The graph over pts and its scales; smooths `guide` on the way (one neighbour search for
 /// both: the graph takes the first k columns of the guide's guide_k-deep table), unless the
-/// guides were given (OrientOptions::guides: the table keeps its depth, the same graph).
-Graph build_graph(const Points& pts, Normals& guide, const OrientOptions& options) {
+/// guides were given (OrientOptions::guides: the table keeps its depth, the same graph). The
+/// table is OrientOptions::neighbours where given_table() takes it.
+Graph build_graph(const Points& pts, Normals& guide, const OrientOptions& options, bool every_row) {
   const Eigen::Index m = pts.rows();
   Graph graph;
   if (m <= 1) {
     graph.adj.link(IndexMatrix(m, 1), 1, 1);
     return graph;
   }
-  const Neighbors tree(pts);
   RunContext sub;
   sub.threads = options.run.threads;
   const bool smooth = options.smooth_guide && m >= 3;
   const int k = int(std::min<Eigen::Index>(options.k, m));
   const int guide_k = int(std::min<Eigen::Index>(options.guide_k, m));
-  IndexMatrix knn;
-  tree.knn_all(smooth ? std::max(k, guide_k) : k, knn, nullptr, sub);
+  const int depth = smooth ? std::max(k, guide_k) : k;
+  IndexMatrix searched;
+  const IndexMatrix* given = given_table(options, every_row, depth);
+  if (!given) Neighbors(pts).knn_all(depth, searched, nullptr, sub);
+  const IndexMatrix& knn = given ? *given : searched;
   link_neighbours(pts, knn, k, sub.threads, graph);
   if (smooth && !options.guides) smooth_guide(pts, knn, guide_k, sub, guide);
   graph.noise = guide_noise(pts, guide, graph.adj, sub.threads);
@@ -564,7 +574,7 @@ std::vector<uint8_t> orient_mst(const Points& points, Normals& normals,
   take_guides(options, used, guide);
 
   if (options.run.progress) progress.stage("orient: neighbours", 0, 0.3);
-  const Graph graph = build_graph(pts, guide, options);
+  const Graph graph = build_graph(pts, guide, options, m == points.rows());
   progress.throw_if_cancelled();
 
   if (options.run.progress) progress.stage("orient: mst", 0.3, 1.0);
@@ -610,6 +620,25 @@ void orient_mst_deduplicated(const Points& points, Normals& normals,
   }
 }
 
+/// Throws InvalidOptions unless `table` (when given) has one row per point, itself first, and
+/// only row numbers of the points.
+void check_table(const Points& points, const IndexMatrix* table) {
+  if (!table) return;
+  const Eigen::Index n = points.rows();
+  bool ok = table->rows() == n && table->cols() >= 1;
+  for (Eigen::Index i = 0; ok && i < n; ++i) {
+    ok = (*table)(i, 0) == int32_t(i);
+    for (Eigen::Index c = 1; ok && c < table->cols(); ++c)
+      ok = (*table)(i, c) >= 0 && (*table)(i, c) < n;
+  }
+  if (!ok)
+    throw InvalidOptions("orient: the neighbour table (" + std::to_string(table->rows()) + " x " +
+                         std::to_string(table->cols()) + ") is not one of these " +
+                         std::to_string(n) +
+                         " points (rows of point numbers, each row's own first); pass "
+                         "EstimateResult::neighbours of the same points");
+}
+
 /// Throws InvalidOptions for mismatched sizes or options the chosen mode cannot use.
 void check_options(const Points& points, const Normals& normals, const OrientOptions& options,
                    const Normals& reference) {
@@ -639,6 +668,7 @@ void check_options(const Points& points, const Normals& normals, const OrientOpt
   if (options.guides && options.guides->rows() != points.rows())
     throw InvalidOptions("orient: " + std::to_string(options.guides->rows()) +
                          " guide normals for " + std::to_string(points.rows()) + " points");
+  check_table(points, options.neighbours.get());
 }
 
 /// The rows with a finite point and a valid normal; the others are counted as invalid.
@@ -666,6 +696,11 @@ void orient_keep(Normals& normals, const Normals& reference, const std::vector<i
 }
 
 }  // namespace
+
+int shared_neighbours(const OrientOptions& options) {
+  if (options.mode != OrientMode::Mst && options.mode != OrientMode::Up) return 0;
+  return options.smooth_guide ? std::max(options.k, options.guide_k) : options.k;
+}
 
 OrientResult orient_normals(const Points& points, Normals& normals, const OrientOptions& options,
                             const Normals& reference) {
@@ -721,7 +756,7 @@ TileGraph tile_graph(const Points& points, const Normals& normals, int64_t own,
   t.guide.resize(Eigen::Index(t.rows.size()), 3);
   gather_rows(points, normals, t.rows, t.pts, t.guide);
   take_guides(options, t.rows, t.guide);
-  t.graph = build_graph(t.pts, t.guide, options);
+  t.graph = build_graph(t.pts, t.guide, options, Eigen::Index(t.rows.size()) == points.rows());
   return t;
 }
 

@@ -20,6 +20,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 
 namespace nhnet {
 
@@ -276,6 +277,25 @@ void neighbour_table(const Neighbors& tree, int kdepth, const RunContext& run, I
     knn = knn.leftCols(kdepth).eval();  // only what the stages use
 }
 
+/// Columns of EstimateResult::neighbours this run returns: EstimateOptions::neighbours (at most
+/// the m canonical points) when every input row is a distinct finite point, else 0.
+int shared_columns(const EstimateOptions& options, const detail::Canonical& canon) {
+  if (options.neighbours <= 0 || canon.rows.size() != canon.copies.size()) return 0;
+  return int(std::min<Eigen::Index>(options.neighbours, canon.pts.rows()));
+}
+
+/// EstimateResult::neighbours: the first `cols` columns of the canonical table as input rows.
+void share_neighbours(const IndexMatrix& knn, const detail::Canonical& canon, int cols,
+                      const RunContext& run, EstimateResult& res) {
+  if (cols <= 0) return;
+  const std::vector<int64_t>& rows = canon.rows;
+  res.neighbours.resize(Eigen::Index(rows.size()), cols);
+  detail::parallel_for(int64_t(rows.size()), run.threads, nullptr, [&](int64_t i) {
+    for (int j = 0; j < cols; ++j)
+      res.neighbours(rows[size_t(i)], j) = int32_t(rows[size_t(knn(i, j))]);
+  });
+}
+
 /// What MFPS needs besides the points: the canonical rows and the sizes the pipeline chose.
 struct MfpsInput {
   const std::vector<int64_t>& finite;
@@ -463,7 +483,10 @@ EstimateResult estimate_geometry(const Points& points, const EstimateOptions& op
   const double spacing = res.spacing;  // normalised units, for the stages below
   const ScaleChoice choice = choose_sizes(options, pts.rows(), res);
   const int kdepth = table_depth(options, choice, pts.rows(), res);
-  neighbour_table(tree, kdepth, run, knn);
+  const int shared = shared_columns(options, canon);
+  neighbour_table(tree, std::max(kdepth, shared), run, knn);
+  share_neighbours(knn, canon, shared, run, res);
+  if (knn.cols() > kdepth) knn = knn.leftCols(kdepth).eval();
 
   const PcaResult pca = pca_normals(pts, knn, PcaOptions{res.k_used}, narrow(run, 0.35, 0.45));
   Normals out = pca.normals;
@@ -495,6 +518,12 @@ EstimateResult estimate_cloud(const Points& points, const EstimateOptions& optio
 }
 
 }  // namespace detail
+
+void hand_neighbours(EstimateResult& res, OrientOptions& orient) {
+  if (res.neighbours.size() > 0)
+    orient.neighbours = std::make_shared<const IndexMatrix>(std::move(res.neighbours));
+  res.neighbours.resize(0, 0);
+}
 
 EstimateResult estimate_normals(const Points& points, const EstimateOptions& options) {
   detail::check_options(options);

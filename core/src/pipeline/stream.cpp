@@ -455,6 +455,7 @@ int64_t write_tile_result(const fs::path& file, size_t own, const EstimateResult
 void estimate_tiles(const TileRun& tr, TileSetup setup, StreamResult& res) {
   const size_t ntiles = tr.plan.tiles();
   EstimateOptions& o = setup.options;
+  o.neighbours = 0;  // a tile's table is not the cloud's
   const double begin = 0.15 + variation_span(o.method), span = (0.95 - begin) / double(ntiles);
   std::set<std::string> seen_warnings(res.warnings.begin(), res.warnings.end());
   int64_t degenerate = 0;

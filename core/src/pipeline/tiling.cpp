@@ -259,8 +259,10 @@ EstimateResult estimate_tiled(const Points& points, const EstimateOptions& optio
     ov.noise_ratio = probe.noise.ratio;
     ov.spacing = probe.noise.spacing;  // tiles are given normalised coordinates
   }
+  // In one piece the table returned for the orientation (EstimateOptions::neighbours) counts too.
+  const int kbytes = sizes.kneed + std::max(0, options.neighbours);
   if (options.tiles.memory > 0 &&
-      untiled_bytes(int64_t(pts.rows()), sizes.kneed, options.method) <= options.tiles.memory) {
+      untiled_bytes(int64_t(pts.rows()), kbytes, options.method) <= options.tiles.memory) {
     const double unit = canon.unit;
     canon = Canonical{};  // the untiled run makes its own
     return in_one_piece(points, options, ov, unit);
@@ -272,6 +274,7 @@ EstimateResult estimate_tiled(const Points& points, const EstimateOptions& optio
   const Tiles tiles = cut_tiles(pts, options.tiles.points);
 
   EstimateOptions o = options;
+  o.neighbours = 0;                     // a tile's table is not the cloud's
   if (options.method == Method::NhNet)  // loaded once for all tiles
     o.model.loaded = model_for(options.model, options.run.threads);
   const double span1 = options.method == Method::Pca ? 0.0 : 0.15;

@@ -94,6 +94,11 @@ struct OrientOptions {
   /// the flood fill's leak count and its MST: the guide's PCA is skipped (the neighbour search
   /// keeps its depth, so the graph is the same). nullptr = fitted here.
   std::shared_ptr<const Normals> guides;
+  /// Mst: the points' neighbour table (EstimateResult::neighbours of the same points: N rows,
+  /// itself first, nearest first) used for the graph and the guides instead of a search of its
+  /// own, when it has shared_neighbours() columns (or N) and every point takes part (valid
+  /// normals, no exact duplicates); otherwise the search runs as without it. nullptr = search.
+  std::shared_ptr<const IndexMatrix> neighbours;
   /// Mirror only pairs whose offset along both normals exceeds reflect_noise x the noise (the
   /// median over the points of the median |(p_j - p_i) . n_i| over their k nearest); below that
   /// the mirror mostly reflects noise.
@@ -128,6 +133,11 @@ struct OrientResult {
   int64_t inside_outside_votes = 0;
   double voxel = 0;
 };
+
+/// Columns of a neighbour table that an orientation with `options` can reuse
+/// (EstimateOptions::neighbours, OrientOptions::neighbours): Mst and Up, k or, with the smooth
+/// guide, max(k, guide_k); 0 for the other modes.
+int shared_neighbours(const OrientOptions& options);
 
 /// Orients `normals` (N x 3, rows of `points`, N x 3) in place; the order of the rows never
 /// changes. `reference` (N x 3) is needed by OrientMode::Keep only. Throws InvalidOptions for

@@ -5,6 +5,7 @@
 
 #include "nhnet/geometry/mfps.hpp"
 #include "nhnet/learned/nhnet_model.hpp"
+#include "nhnet/orient/orient.hpp"
 #include "nhnet/progress.hpp"
 #include "nhnet/types.hpp"
 
@@ -75,6 +76,10 @@ struct EstimateOptions {
   ModelOptions model;
   /// Spatial tiles (TileOptions above).
   TileOptions tiles;
+  /// Also return each point's this many nearest rows (EstimateResult::neighbours), for an MST
+  /// orientation to reuse instead of searching again (shared_neighbours(), orient.hpp); 0 =
+  /// none. Returned only by a run in one piece over distinct finite points.
+  int neighbours = 0;
   /// Threads (0 = all cores) and progress/cancel callback.
   RunContext run;
 };
@@ -115,7 +120,15 @@ struct EstimateResult {
   int descriptor_k = 0;
   /// Non-fatal notes for the user (clamped neighbourhoods, non-finite points, ...).
   std::vector<std::string> warnings;
+  /// With EstimateOptions::neighbours: N x min(neighbours, N) input rows of each point's nearest
+  /// points, itself first, nearest first (for OrientOptions::neighbours); empty when the cloud
+  /// was tiled or holds non-finite points or exact duplicates.
+  IndexMatrix neighbours;
 };
+
+/// Moves res.neighbours (EstimateOptions::neighbours) into orient.neighbours, for
+/// orient_normals() of the same points to reuse; leaves `orient` as it is when there is none.
+void hand_neighbours(EstimateResult& res, OrientOptions& orient);
 
 /// Estimates unoriented normals for `points` (N x 3). Non-finite points are skipped and reported
 /// as failed; they never influence their neighbours. Throws InvalidOptions for bad options,
