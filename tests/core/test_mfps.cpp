@@ -242,3 +242,24 @@ TEST(Mfps, KeepBlendWeightsKeepsTheWeightsAlone) {
     EXPECT_LE(w, 1.0);
   }
 }
+
+TEST(Bandwidth, TakesThePcaPlanesOfItsPatchSize) {
+  // The pipeline's PCA fits the same k_patch planes the bandwidth's first pass fits: given
+  // pca_normals() of that k the result is the same bit for bit; of another k they are ignored.
+  const auto f = fixtures::cube(4000, 0.004, 9);
+  const IndexMatrix knn = fixtures::knn_table(f.points, 60);
+  BandwidthOptions bo;
+  bo.k_patch = 30;
+  bo.k_average = 60;
+  const double spacing = std::sqrt(24.0 / 4000);
+  const Eigen::VectorXd fitted = residual_bandwidth(f.points, knn, spacing, bo);
+  const PcaResult same = pca_normals(f.points, knn, PcaOptions{30});
+  EXPECT_TRUE(residual_bandwidth(f.points, knn, spacing, bo, {}, &same) == fitted);
+  const PcaResult other = pca_normals(f.points, knn, PcaOptions{40});
+  EXPECT_TRUE(residual_bandwidth(f.points, knn, spacing, bo, {}, &other) == fitted);
+  // The planes are read, not refitted: tilting them all changes the result.
+  PcaResult tilted = same;
+  for (Eigen::Index i = 0; i < tilted.normals.rows(); ++i)
+    tilted.normals.row(i) = Eigen::RowVector3d(0.6, 0.0, 0.8);
+  EXPECT_FALSE(residual_bandwidth(f.points, knn, spacing, bo, {}, &tilted) == fitted);
+}

@@ -13,20 +13,29 @@
 namespace nhnet {
 
 Eigen::VectorXd residual_bandwidth(const Points& points, const IndexMatrix& knn, double spacing,
-                                   const BandwidthOptions& options, const RunContext& run) {
+                                   const BandwidthOptions& options, const RunContext& run,
+                                   const PcaResult* planes) {
   const Eigen::Index n = points.rows();
   if (knn.rows() != n) throw InvalidOptions("residual_bandwidth: knn must have one row per point");
   const int kp = int(std::min<Eigen::Index>(std::max(3, options.k_patch), knn.cols()));
   const int ka = int(std::min<Eigen::Index>(std::max(1, options.k_average), knn.cols()));
 
   // Pass 1: PCA plane (centroid, normal) and summed absolute residual E_i of every kp-NN patch.
+  if (planes && (planes->k != kp || planes->centroid.rows() != n || planes->normals.rows() != n))
+    planes = nullptr;  // another patch size: fitted here
   Points centroid(n, 3), normal(n, 3);
   Eigen::VectorXd esum(n), log_esum(n);
   detail::Progress progress(run.progress);
   if (run.progress) progress.stage("bandwidth", 0, 0.4);
   detail::parallel_for(n, run.threads, run.progress ? &progress : nullptr, [&](int64_t i) {
     Eigen::Vector3d c;
-    Eigen::Vector3d nrm = fit_plane(points, &knn(i, 0), kp, &c);
+    Eigen::Vector3d nrm;
+    if (planes) {
+      c = planes->centroid.row(i).transpose();
+      nrm = planes->normals.row(i).transpose();
+    } else {
+      nrm = fit_plane(points, &knn(i, 0), kp, &c);
+    }
     if (!nrm.allFinite()) nrm = Eigen::Vector3d::UnitZ();  // degenerate: residuals along z
     double e = 1e-9;
     for (int j = 0; j < kp; ++j) e += std::abs((points.row(knn(i, j)).transpose() - c).dot(nrm));

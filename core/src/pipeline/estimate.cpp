@@ -323,7 +323,7 @@ Normals mfps_stage(const Points& pts, const IndexMatrix& knn, const PcaResult& p
   bo.k_patch = res.k_used;
   bo.k_average = in.kdepth;
   const Eigen::VectorXd bw =
-      residual_bandwidth(pts, knn, in.spacing, bo, detail::narrow(options.run, 0.45, 0.55));
+      residual_bandwidth(pts, knn, in.spacing, bo, detail::narrow(options.run, 0.45, 0.55), &pca);
   MfpsOptions mo = options.mfps;
   const bool recorded = mo.record_blend_features;
   mo.keep_blend_weights = mo.keep_blend_weights || blend_weight != nullptr;  // weights, no copies

@@ -5,6 +5,7 @@
 // bandwidth(j).
 #pragma once
 
+#include "nhnet/geometry/pca.hpp"
 #include "nhnet/progress.hpp"
 #include "nhnet/types.hpp"
 
@@ -27,9 +28,11 @@ struct BandwidthOptions {
 /// contain j when neighbourhoods are symmetric), that minimises E_i * exp((o_j / 2 mu_i)^2)
 /// (E_i: sum of absolute residuals of patch i, mu_i their mean, o_j: offset of j from the plane
 /// through the patch centre) -- the authors' rule, written as a gather so it runs in parallel.
-/// `spacing` is the average point spacing (for the lower bound).
+/// `spacing` is the average point spacing (for the lower bound). `planes`: pca_normals() of the
+/// same points and table; its planes are the patches' when its k is k_patch (then they are not
+/// fitted again: same result, one PCA instead of two).
 Eigen::VectorXd residual_bandwidth(const Points& points, const IndexMatrix& knn, double spacing,
-                                   const BandwidthOptions& options = {},
-                                   const RunContext& run = {});
+                                   const BandwidthOptions& options = {}, const RunContext& run = {},
+                                   const PcaResult* planes = nullptr);
 
 }  // namespace nhnet

@@ -21,6 +21,10 @@ struct PcaResult {
   Eigen::VectorXd variation;
   /// N root-mean-square distances of the neighbourhood to its least-squares plane.
   Eigen::VectorXd residual_rms;
+  /// N x 3 centroids of the neighbourhoods (the planes pass through them).
+  Points centroid;
+  /// Neighbours per point that were used.
+  int k = 0;
 };
 
 /// PCA over the first `options.k` columns of `knn` (N x K, K >= k, from Neighbors::knn_all) of
