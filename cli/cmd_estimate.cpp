@@ -18,6 +18,7 @@
 #include "nhnet/orient/auto.hpp"
 #include "nhnet/orient/orient.hpp"
 #include "nhnet/pipeline/estimate.hpp"
+#include "nhnet/pipeline/estimate_oriented.hpp"
 #include "nhnet/pipeline/stream.hpp"
 
 #include <CLI/CLI.hpp>
@@ -135,7 +136,6 @@ nhnet::OrientPlan orientation_for(const Setup& st, Reporter& rep, const std::str
 
 /// Reads IN, estimates, orients and writes OUT; fills `o`. Throws on failure.
 void estimate_in_memory(const EstimateArgs& a, const Setup& st, Outcome& o) {
-  nhnet::EstimateOptions opt = st.opt;
   Reporter rep(a.output.quiet);
 
   // Output path (exit 6), before any work.
@@ -147,26 +147,18 @@ void estimate_in_memory(const EstimateArgs& a, const Setup& st, Outcome& o) {
   throw_if_interrupted();
   o.points = int64_t(cloud.size());
   const nhnet::OrientPlan plan = orientation_for(st, rep, o.in, cloud);
-  nhnet::OrientOptions orient = plan.options;
+  const nhnet::OrientOptions& orient = plan.options;
   o.orient = nhnet::to_string(orient.mode);
   o.orient_source = plan.source;
 
   // Estimate (exit 4 when too few finite points, 130 when interrupted), then orient.
-  const bool mst = orient.mode == nhnet::OrientMode::Mst || orient.mode == nhnet::OrientMode::Up;
-  const double est_end = mst ? 0.9 : 1.0;
-  opt.run.progress = rep.callback(0.0, est_end);
-  opt.neighbours = nhnet::shared_neighbours(orient);  // the MST reuses the estimator's search
-  nhnet::EstimateResult res = nhnet::estimate_normals(cloud.points, opt);
+  nhnet::OrientedResult both = nhnet::estimate_oriented(
+      cloud.points, st.opt, orient, nhnet::RunContext{st.opt.run.threads, rep.callback()},
+      cloud.normals);
+  nhnet::EstimateResult& res = both.estimate;
+  const nhnet::OrientResult& ores = both.orient;
   rep.clear();
   for (const auto& w : res.warnings) rep.warn(w);
-  throw_if_interrupted();
-
-  orient.run.progress = rep.callback(est_end, 1.0);
-  nhnet::hand_neighbours(res, orient);
-  const nhnet::OrientResult ores =
-      nhnet::orient_normals(cloud.points, res.normals, orient, cloud.normals);
-  orient.neighbours.reset();
-  rep.clear();
   warn_unoriented(rep, orient, ores);
   throw_if_interrupted();
 

@@ -2,6 +2,7 @@
 #include "NhnetAdapter.h"
 
 #include "../common/polled_run.hpp"
+#include "nhnet/pipeline/estimate_oriented.hpp"
 
 // CloudCompare
 #include <ccHObjectCaster.h>
@@ -319,22 +320,15 @@ Outcome estimate_cloud_normals(ccPointCloud& cloud, const NormalsSettings& setti
       settings.orient == nhnet::OrientMode::Keep || settings.orient == nhnet::OrientMode::Auto;
   const nhnet::Cloud in = cloud_in(cloud, keep_asked && cloud.hasNormals(), out.warnings);
   const nhnet::OrientPlan plan = plan_orientation(settings, in, out.warnings);
-  nhnet::OrientOptions orient = plan.options;
-  const bool orienting = orient.mode != nhnet::OrientMode::None;
+  const nhnet::OrientOptions& orient = plan.options;
 
-  nhnet::EstimateResult res;
-  nhnet::OrientResult ores;
+  nhnet::OrientedResult both;
   run_with_progress(ui, [&](const nhnet::ProgressCallback& cb) {
-    const double split = orienting ? 0.85 : 1.0;
-    nhnet::EstimateOptions eo = p.options;
-    eo.neighbours = nhnet::shared_neighbours(orient);  // the MST reuses the estimator's search
-    res = run_estimate(in.points, eo, narrow(cb, 0, split));
-    if (!orienting) return;
-    orient.run.progress = narrow(cb, split, 1);
-    nhnet::hand_neighbours(res, orient);
-    ores = nhnet::orient_normals(in.points, res.normals, orient, in.normals);
-    orient.neighbours.reset();
+    both = nhnet::estimate_oriented(in.points, p.options, orient,
+                                    nhnet::RunContext{p.options.run.threads, cb}, in.normals);
   });
+  nhnet::EstimateResult& res = both.estimate;
+  const nhnet::OrientResult& ores = both.orient;
   out.warnings << to_qt(res.warnings);
   if (ores.unoriented > 0)
     out.warnings << QString("orientation %1: %2 normals could not be oriented (left as estimated)")

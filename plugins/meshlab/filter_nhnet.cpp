@@ -10,6 +10,7 @@
 #include "nhnet/orient/auto.hpp"
 #include "nhnet/orient/orient.hpp"
 #include "nhnet/pipeline/estimate.hpp"
+#include "nhnet/pipeline/estimate_oriented.hpp"
 
 #include <QApplication>
 #include <QMainWindow>
@@ -433,24 +434,15 @@ void NhnetFilterPlugin::estimate(MeshModel& mm, const RichParameterList& par,
   if (has_vertex_normals(mm.cm)) cloud.normals = std::move(v.normals);
   v.normals = nhnet::Normals();  // zeros otherwise: not kept through the run
   add_shot_sensor(mm.cm, cloud);
-  nhnet::OrientPlan plan = orientPlan(par, cloud);
-  const bool orienting = plan.options.mode != nhnet::OrientMode::None;
+  const nhnet::OrientPlan plan = orientPlan(par, cloud);
 
-  nhnet::EstimateResult res;
-  nhnet::OrientResult ores;
+  nhnet::OrientedResult both;
   runPolled(cb, [&](const nhnet::ProgressCallback& progress) {
-    nhnet::EstimateOptions o = opt;
-    o.run.progress = [&](double f, const std::string& s) { return progress(f * 0.85, s); };
-    o.neighbours = nhnet::shared_neighbours(plan.options);  // the MST reuses the search
-    res = nhnet::estimate_normals(cloud.points, o);
-    if (!orienting) return;
-    plan.options.run.progress = [&](double f, const std::string& s) {
-      return progress(0.85 + 0.15 * f, s);
-    };
-    nhnet::hand_neighbours(res, plan.options);
-    ores = nhnet::orient_normals(cloud.points, res.normals, plan.options, cloud.normals);
-    plan.options.neighbours.reset();
+    both = nhnet::estimate_oriented(cloud.points, opt, plan.options,
+                                    nhnet::RunContext{opt.run.threads, progress}, cloud.normals);
   });
+  const nhnet::EstimateResult& res = both.estimate;
+  const nhnet::OrientResult& ores = both.orient;
 
   // Copy out: failed points get a zero normal (MeshLab's "no normal").
   for (size_t i = 0; i < v.ptr.size(); ++i)

@@ -5,6 +5,7 @@
 #include "nhnet/errors.hpp"
 #include "nhnet/orient/auto.hpp"
 #include "nhnet/pipeline/estimate.hpp"
+#include "nhnet/pipeline/estimate_oriented.hpp"
 
 #include <pybind11/stl.h>
 
@@ -34,27 +35,19 @@ PyEstimateResult estimate(const py::handle& points, const std::optional<std::str
   opt.model.refine_all = refine_all_from_string(refine);
   opt.k = k;
   if (scales) opt.mfps.scales = *scales;
-  opt.run.threads = threads;
   opt.mfps.seed = seed;
   const Points pts = points_of(points);
   OrientRequest req = orient_request(orient, py::none(), viewpoint, OrientOptions().k, pts.rows());
   resolve_request(req, points, OrientMode::None);
-  req.options.run.threads = threads;
 
   PyEstimateResult out;
   out.orient_mode = to_string(req.options.mode);
   out.orient_source = req.source;
   out.core = run_released(progress, [&](ProgressCallback cb) {
-    opt.run.progress = std::move(cb);
-    opt.neighbours = shared_neighbours(req.options);  // the MST reuses the estimator's search
-    EstimateResult res = estimate_normals(pts, opt);
-    if (req.options.mode != OrientMode::None) {
-      req.options.run.progress = opt.run.progress;
-      hand_neighbours(res, req.options);
-      out.orient = orient_normals(pts, res.normals, req.options, req.reference);
-      req.options.neighbours.reset();
-    }
-    return res;
+    OrientedResult both =
+        estimate_oriented(pts, opt, req.options, RunContext{threads, std::move(cb)}, req.reference);
+    out.orient = both.orient;
+    return std::move(both.estimate);
   });
   EstimateResult& r = out.core;
   out.normals = to_numpy(r.normals);

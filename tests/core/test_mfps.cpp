@@ -253,13 +253,18 @@ TEST(Bandwidth, TakesThePcaPlanesOfItsPatchSize) {
   bo.k_average = 60;
   const double spacing = std::sqrt(24.0 / 4000);
   const Eigen::VectorXd fitted = residual_bandwidth(f.points, knn, spacing, bo);
-  const PcaResult same = pca_normals(f.points, knn, PcaOptions{30});
+  const PcaResult same = pca_normals(f.points, knn, PcaOptions{30, true});
   EXPECT_TRUE(residual_bandwidth(f.points, knn, spacing, bo, {}, &same) == fitted);
-  const PcaResult other = pca_normals(f.points, knn, PcaOptions{40});
+  const PcaResult other = pca_normals(f.points, knn, PcaOptions{40, true});
   EXPECT_TRUE(residual_bandwidth(f.points, knn, spacing, bo, {}, &other) == fitted);
   // The planes are read, not refitted: tilting them all changes the result.
   PcaResult tilted = same;
   for (Eigen::Index i = 0; i < tilted.normals.rows(); ++i)
     tilted.normals.row(i) = Eigen::RowVector3d(0.6, 0.0, 0.8);
   EXPECT_FALSE(residual_bandwidth(f.points, knn, spacing, bo, {}, &tilted) == fitted);
+  // Without centroids (PcaOptions::centroids off, the default) there are no planes to read.
+  PcaResult bare = pca_normals(f.points, knn, PcaOptions{30});
+  EXPECT_EQ(bare.centroid.rows(), 0);
+  bare.normals = tilted.normals;
+  EXPECT_TRUE(residual_bandwidth(f.points, knn, spacing, bo, {}, &bare) == fitted);
 }

@@ -12,6 +12,7 @@
 #include "nhnet/orient/orient.hpp"
 #include "nhnet/pipeline/describe.hpp"
 #include "nhnet/pipeline/estimate.hpp"
+#include "nhnet/pipeline/estimate_oriented.hpp"
 #include "nhnet/pipeline/stream.hpp"
 #include "nhnet/pipeline/tiles.hpp"
 #include "nhnet/progress.hpp"

@@ -42,19 +42,36 @@ struct Plane {
   Eigen::Vector3d c = Eigen::Vector3d::Zero();  // point on the plane (patch-local coordinates)
 };
 
+/// Points as three coordinate arrays (detail::plane_kernels' input).
+struct Coords {
+  std::vector<double> x, y, z;
+  size_t size() const { return x.size(); }
+  void resize(size_t m) {
+    x.resize(m);
+    y.resize(m);
+    z.resize(m);
+  }
+  Eigen::Vector3d at(size_t t) const { return {x[t], y[t], z[t]}; }
+  void set(size_t t, const Eigen::Vector3d& p) {
+    x[t] = p[0];
+    y[t] = p[1];
+    z[t] = p[2];
+  }
+};
+
 /// Least-squares plane of weighted patch-local points; false when degenerate.
-bool weighted_plane(const std::vector<Eigen::Vector3d>& q, const double* w, Plane& out) {
+bool weighted_plane(const Coords& q, const double* w, Plane& out) {
   double ws = 0;
   Eigen::Vector3d c = Eigen::Vector3d::Zero();
   for (size_t k = 0; k < q.size(); ++k) {
     ws += w[k];
-    c += w[k] * q[k];
+    c += w[k] * q.at(k);
   }
   if (!(ws > 0)) return false;
   c /= ws;
   Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
   for (size_t k = 0; k < q.size(); ++k) {
-    const Eigen::Vector3d d = q[k] - c;
+    const Eigen::Vector3d d = q.at(k) - c;
     cov.noalias() += w[k] * d * d.transpose();
   }
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
@@ -78,22 +95,6 @@ bool four_point_plane(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const 
   out.c = m;
   return true;
 }
-
-/// Points as three coordinate arrays (detail::plane_kernels' input).
-struct Coords {
-  std::vector<double> x, y, z;
-  size_t size() const { return x.size(); }
-  void resize(size_t m) {
-    x.resize(m);
-    y.resize(m);
-    z.resize(m);
-  }
-  void set(size_t t, const Eigen::Vector3d& p) {
-    x[t] = p[0];
-    y[t] = p[1];
-    z[t] = p[2];
-  }
-};
 
 /// E of Eq. 1 (mean Gaussian kernel of residuals) over the points `q`. With `terms`, the
 /// kernel of every point is stored there too: over a whole patch they are the IRLS weights of
@@ -217,8 +218,7 @@ struct PatchPlanes {
 
 /// One thread's buffers for fitting patches, reused from patch to patch.
 struct PatchScratch {
-  std::vector<Eigen::Vector3d> q;              // members relative to the centre, nearest first
-  Coords all;                                  // the same members as coordinate arrays
+  Coords all;                                  // members relative to the centre, nearest first
   Coords scoring;                              // the members of the preemptive scoring
   std::vector<double> w;                       // unit weights of the fallback plane
   std::vector<int> subset;                     // members of the preemptive scoring
@@ -246,7 +246,7 @@ const std::vector<int>* draw_score_subset(SplitMix& rng, int K, int size, PatchS
   for (int t = 1; t < size; ++t) std::swap(subset[size_t(t)], subset[size_t(t + rng.below(K - t))]);
   subset.resize(size_t(size));
   ps.scoring.resize(size_t(size));
-  for (size_t t = 0; t < size_t(size); ++t) ps.scoring.set(t, ps.q[size_t(subset[t])]);
+  for (size_t t = 0; t < size_t(size); ++t) ps.scoring.set(t, ps.all.at(size_t(subset[t])));
   return &subset;
 }
 
@@ -254,7 +254,7 @@ const std::vector<int>* draw_score_subset(SplitMix& rng, int K, int size, PatchS
 /// members `scoring`; a plane that misses the centre by more than sigma_j is rejected.
 void sample_planes(PatchScratch& ps, const Coords& scoring, SplitMix& rng, int K, int samples,
                    double sj, double inv_s2) {
-  const std::vector<Eigen::Vector3d>& q = ps.q;
+  const Coords& q = ps.all;
   ps.scored.clear();
   ps.cands.clear();
   for (int m = 0; m < samples; ++m) {
@@ -263,8 +263,8 @@ void sample_planes(PatchScratch& ps, const Coords& scoring, SplitMix& rng, int K
     for (int guard = 0; (c == a || c == b) && guard < 8; ++guard) c = 1 + rng.below(K - 1);
     if (a == b || a == c || b == c) continue;
     Plane pl;
-    if (!four_point_plane(q[0], q[size_t(a)], q[size_t(b)], q[size_t(c)], pl)) continue;
-    const double r0 = (q[0] - pl.c).dot(pl.n);
+    if (!four_point_plane(q.at(0), q.at(size_t(a)), q.at(size_t(b)), q.at(size_t(c)), pl)) continue;
+    const double r0 = (q.at(0) - pl.c).dot(pl.n);
     if (r0 * r0 > sj * sj) continue;  // the plane must pass near the patch centre
     ps.scored.emplace_back(objective(scoring, pl, inv_s2), int(ps.cands.size()));
     ps.cands.push_back(pl);
@@ -274,7 +274,7 @@ void sample_planes(PatchScratch& ps, const Coords& scoring, SplitMix& rng, int K
 /// Every sample rejected: the least-squares plane of the whole patch; false when degenerate.
 bool fallback_plane(PatchScratch& ps, int K, double inv_s2, PatchFit& fit) {
   ps.w.assign(size_t(K), 1.0);
-  if (!weighted_plane(ps.q, ps.w.data(), fit.best)) return false;
+  if (!weighted_plane(ps.all, ps.w.data(), fit.best)) return false;
   fit.e = objective(ps.all, fit.best, inv_s2, ps.best_w.data());
   fit.have_w = true;
   fit.fallback = true;
@@ -311,7 +311,7 @@ void refine_irls(PatchScratch& ps, int iterations, double inv_s2, PatchFit& fit)
       fit.have_w = true;
     }
     Plane next;
-    if (!weighted_plane(ps.q, ps.best_w.data(), next)) break;
+    if (!weighted_plane(ps.all, ps.best_w.data(), next)) break;
     const double e = objective(ps.all, next, inv_s2, ps.next_w.data());
     if (!(e > fit.e)) break;
     fit.e = e;
@@ -320,7 +320,7 @@ void refine_irls(PatchScratch& ps, int iterations, double inv_s2, PatchFit& fit)
   }
 }
 
-/// theta* of one patch of K members (in ps.q), Eq. 1-2: random 4-point samples, preemptive
+/// theta* of one patch of K members (in ps.all), Eq. 1-2: random 4-point samples, preemptive
 /// scoring, re-scoring of the best, IRLS refinement. False when the patch has no plane.
 bool fit_patch(PatchScratch& ps, int K, double sj, const MfpsOptions& options, PatchFit& fit) {
   const double inv_s2 = 1.0 / (sj * sj);
@@ -358,12 +358,9 @@ PatchPlanes fit_patch_planes(const Inputs& in, const Scales& scales,
       const int K = scales.k[size_t(s)];
       if (first_cand[size_t(j)] >= K) continue;
       patches.fetch_add(1, std::memory_order_relaxed);
-      ps.q.resize(size_t(K));
       ps.all.resize(size_t(K));
-      for (int t = 0; t < K; ++t) {
-        ps.q[size_t(t)] = in.points.row(in.knn(j, t)).transpose() - pj;
-        ps.all.set(size_t(t), ps.q[size_t(t)]);
-      }
+      for (int t = 0; t < K; ++t)
+        ps.all.set(size_t(t), in.points.row(in.knn(j, t)).transpose() - pj);
       PatchFit fit;
       if (!fit_patch(ps, K, in.sigma[j], in.options, fit)) continue;
       if (fit.fallback) fallbacks.fetch_add(1, std::memory_order_relaxed);

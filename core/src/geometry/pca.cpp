@@ -51,7 +51,7 @@ PcaResult pca_normals(const Points& points, const IndexMatrix& knn, const PcaOpt
   r.normals.resize(n, 3);
   r.variation.resize(n);
   r.residual_rms.resize(n);
-  r.centroid.resize(n, 3);
+  if (options.centroids) r.centroid.resize(n, 3);
   r.k = k;
   detail::Progress progress(run.progress);
   if (run.progress) progress.stage("pca", 0, 1);
@@ -59,7 +59,7 @@ PcaResult pca_normals(const Points& points, const IndexMatrix& knn, const PcaOpt
     Eigen::Vector3d ev, c;
     const Eigen::Vector3d nrm = fit_plane(points, &knn(i, 0), k, &c, &ev);
     r.normals.row(i) = nrm.transpose();
-    r.centroid.row(i) = c.transpose();
+    if (options.centroids) r.centroid.row(i) = c.transpose();
     const double s = ev.sum();
     r.variation[i] = (s > 0 && std::isfinite(s)) ? std::max(0.0, ev[0]) / s : 0.0;
     r.residual_rms[i] = std::sqrt(std::max(0.0, ev[0]));

@@ -268,13 +268,10 @@ int table_depth(const EstimateOptions& options, const ScaleChoice& choice, Eigen
   return int(std::min<Eigen::Index>(kneed, m));
 }
 
-/// The one neighbour table every stage shares, `kdepth` deep. Rows are sorted by distance, so
-/// the probe's table serves any smaller size as its prefix.
+/// The one neighbour table every stage shares, at least `kdepth` deep: the probe's table when it
+/// is deep enough (rows are sorted by distance, so it serves any smaller size as its prefix).
 void neighbour_table(const Neighbors& tree, int kdepth, const RunContext& run, IndexMatrix& knn) {
-  if (kdepth > knn.cols())
-    tree.knn_all(kdepth, knn, nullptr, detail::narrow(run, 0.2, 0.35));
-  else if (knn.cols() > kdepth)
-    knn = knn.leftCols(kdepth).eval();  // only what the stages use
+  if (kdepth > knn.cols()) tree.knn_all(kdepth, knn, nullptr, detail::narrow(run, 0.2, 0.35));
 }
 
 /// Columns of EstimateResult::neighbours this run returns: EstimateOptions::neighbours (at most
@@ -486,9 +483,10 @@ EstimateResult estimate_geometry(const Points& points, const EstimateOptions& op
   const int shared = shared_columns(options, canon);
   neighbour_table(tree, std::max(kdepth, shared), run, knn);
   share_neighbours(knn, canon, shared, run, res);
-  if (knn.cols() > kdepth) knn = knn.leftCols(kdepth).eval();
+  if (knn.cols() > kdepth) knn = knn.leftCols(kdepth).eval();  // only what the stages use
 
-  const PcaResult pca = pca_normals(pts, knn, PcaOptions{res.k_used}, narrow(run, 0.35, 0.45));
+  const PcaOptions pca_options{res.k_used, options.method == Method::Mfps};  // MFPS: bandwidth
+  const PcaResult pca = pca_normals(pts, knn, pca_options, narrow(run, 0.35, 0.45));
   Normals out = pca.normals;
   Eigen::VectorXd weight;
   if (options.method == Method::Mfps) {

@@ -12,6 +12,9 @@ namespace nhnet {
 struct PcaOptions {
   /// Neighbourhood size, self included (authors' code: 35 = 0.7 * Kmin; 0 = all columns of knn).
   int k = 35;
+  /// Keep each neighbourhood's centroid in PcaResult::centroid (24 bytes a point; the residual
+  /// bandwidth reuses these planes instead of fitting them again).
+  bool centroids = false;
 };
 
 struct PcaResult {
@@ -21,7 +24,8 @@ struct PcaResult {
   Eigen::VectorXd variation;
   /// N root-mean-square distances of the neighbourhood to its least-squares plane.
   Eigen::VectorXd residual_rms;
-  /// N x 3 centroids of the neighbourhoods (the planes pass through them).
+  /// N x 3 centroids of the neighbourhoods (the planes pass through them); empty unless
+  /// PcaOptions::centroids.
   Points centroid;
   /// Neighbours per point that were used.
   int k = 0;
