@@ -55,10 +55,11 @@ void add_method_options(CLI::App* sub, EstimateArgs& a) {
                       default_note(a.candidate_mix))
       ->type_name("on|off");
   sub->add_option("--refine", a.refine,
-                  "NH-Net with the candidate mix: run the network on every point (all), or only "
-                  "where MFPS moved the PCA normal near features (moved: faster) " +
+                  "NH-Net with the candidate mix: run the network on every point (all), only "
+                  "where MFPS moved the PCA normal near features (moved: faster), or all on a "
+                  "noisy cloud and moved on a clean one (auto) " +
                       default_note(a.refine))
-      ->type_name("all|moved");
+      ->type_name("auto|all|moved");
   sub->add_option("-k,--k", a.k,
                   "PCA neighbourhood size, >= 3 (default: chosen from the noise level)")
       ->type_name("K");
@@ -163,7 +164,7 @@ Setup prepare(const EstimateArgs& a) {
   if (a.candidate_mix != "on" && a.candidate_mix != "off")
     throw nhnet::InvalidOptions("--candidate-mix must be on or off, got '" + a.candidate_mix + "'");
   opt.model.candidate_mix = a.candidate_mix == "on";
-  opt.model.refine_all = nhnet::refine_all_from_string(a.refine);
+  opt.model.refine = nhnet::refine_from_string(a.refine);
   if (opt.method != nhnet::Method::NhNet && nhnet_asked)
     throw nhnet::InvalidOptions(
         "--model, --device, --candidate-mix and --refine only apply to --method nhnet");

@@ -34,7 +34,7 @@ struct EstimateArgs {
   std::string device = nhnet::EstimateOptions{}.model.device;  ///< NH-Net device
   /// NH-Net's candidate mix: on | off
   std::string candidate_mix = nhnet::EstimateOptions{}.model.candidate_mix ? "on" : "off";
-  std::string refine = nhnet::refine_name(nhnet::EstimateOptions{}.model.refine_all);
+  std::string refine = nhnet::to_string(nhnet::EstimateOptions{}.model.refine);
   bool stream = false;   ///< --stream: out of core, XYZ input
   std::string temp_dir;  ///< --temp-dir (stream)
   OutputFlags output;

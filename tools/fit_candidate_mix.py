@@ -277,7 +277,7 @@ def cmd_data(a) -> int:
 def features_and_candidates(z, refine="all"):
     """The C++ mix_row(): features (M x FEATURES) and sign-aligned candidates (M x 8 x 3). With
     refine="moved" the network runs only where MFPS moved the PCA normal (refine.cpp,
-    ModelOptions::refine_all = false): elsewhere net = un."""
+    ModelOptions::refine = Refine::Moved): elsewhere net = un."""
     un, bl, pca, jet, half = (unit(z[k]) for k in ("un", "bl", "pca", "jet", "half"))
     moved = (un != pca).any(1)
     net = np.where(moved[:, None] | (refine == "all"), unit(z["net"]), un)
@@ -453,7 +453,7 @@ def main(argv=None) -> int:
     r.add_argument("data")
     for q in (f, r):
         q.add_argument("--refine", choices=["all", "moved"], default="all",
-                       help="where the network runs (ModelOptions::refine_all true / false)")
+                       help="where the network runs (ModelOptions::refine All / Moved)")
     r.add_argument("--weights", required=True)
     a = ap.parse_args(argv)
     return {"data": cmd_data, "fit": cmd_fit, "report": cmd_report,

@@ -32,7 +32,7 @@ PyEstimateResult estimate(const py::handle& points, const std::optional<std::str
                           const py::object& progress, const std::string& refine) {
   EstimateOptions opt;
   opt.method = method ? method_from_string(*method) : default_method();
-  opt.model.refine_all = refine_all_from_string(refine);
+  opt.model.refine = refine_from_string(refine);
   opt.k = k;
   if (scales) opt.mfps.scales = *scales;
   opt.mfps.seed = seed;
@@ -96,11 +96,12 @@ viewpoint : sequence of 3 numbers, optional
 progress : callable, optional
     ``progress(fraction: float, stage: str)`` called about every 50 ms; return False (or raise)
     to cancel: False raises nhnet.Cancelled, an exception is re-raised as it is.
-refine : {'all', 'moved'}
-    NH-Net only (nhnet-cli --refine): 'all' (default) runs the network on every point; 'moved'
-    only where MFPS moved the PCA normal (near features), the geometric candidates (jet,
-    half-scale PCA, radial) elsewhere: much less network time, PCA's accuracy on broad smooth
-    surfaces.
+refine : {'auto', 'all', 'moved'}
+    NH-Net only (nhnet-cli --refine): 'all' runs the network on every point; 'moved' only where
+    MFPS moved the PCA normal (near features), the geometric candidates (jet, half-scale PCA,
+    radial) elsewhere: much less network time, PCA's accuracy on broad noisy smooth surfaces;
+    'auto' (default): 'all' on a noisy cloud, 'moved' on a clean one (noise ratio below 0.02),
+    where the network adds little away from features.
 
 The GIL is released while the core runs; Ctrl-C interrupts it (KeyboardInterrupt).
 
@@ -175,7 +176,7 @@ void register_estimate(py::module_& m) {
       py::arg("scales") = py::none(), py::arg("threads") = defaults.run.threads,
       py::arg("seed") = defaults.mfps.seed, py::arg("orient") = to_string(kDefaultOrientMode),
       py::arg("viewpoint") = py::none(), py::arg("progress") = py::none(),
-      py::arg("refine") = refine_name(defaults.model.refine_all));
+      py::arg("refine") = to_string(defaults.model.refine));
   std::apply([&](const auto&... a) { m.def("estimate", &estimate, estimate_doc.c_str(), a...); },
              args);
 

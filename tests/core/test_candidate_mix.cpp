@@ -196,29 +196,55 @@ TEST(CandidateMix, KeepsTheNetworksGainOnANoisySphere) {
   EXPECT_LT(with, 0.8 * pca) << "pca " << pca << " deg, with " << with << " deg";
 }
 
+namespace {
+
+/// The default method's normals of `points` with `refine`, and how many "nhnet" progress calls
+/// it made: every block of 64 points the network runs ends with one (refine.cpp).
+std::pair<EstimateResult, int> refined(const Points& points, Refine refine) {
+  EstimateOptions o;
+  o.method = Method::NhNet;
+  o.model.device = "cpu";
+  o.model.batch = 64;
+  o.model.refine = refine;
+  int calls = 0;
+  o.run.progress = [&](double, const std::string& stage) {
+    calls += stage == "nhnet";
+    return true;
+  };
+  EstimateResult r = estimate_normals(points, o);
+  EXPECT_EQ(r.failed, 0);
+  return {std::move(r), calls};
+}
+
+}  // namespace
+
 TEST(CandidateMix, MovedModeRunsTheNetworkOnFewerPoints) {
   if (!nhnet_available()) GTEST_FAIL() << "this build has no libtorch: the default method needs it";
   const Points noisy = with_noise(fixtures::sphere(4000, 6).points, 0.021, 6);
-  // Every block of `batch` points ends with one "nhnet" progress call (refine.cpp), so the count
-  // of those calls is at least the number of blocks the network ran.
-  auto blocks = [&](bool all) {
-    EstimateOptions o;
-    o.method = Method::NhNet;
-    o.model.device = "cpu";
-    o.model.batch = 64;
-    o.model.refine_all = all;
-    int calls = 0;
-    o.run.progress = [&](double, const std::string& stage) {
-      calls += stage == "nhnet";
-      return true;
-    };
-    const EstimateResult r = estimate_normals(noisy, o);
-    EXPECT_EQ(r.failed, 0);
-    return calls;
-  };
-  const int all = blocks(true), moved = blocks(false);
+  const int all = refined(noisy, Refine::All).second, moved = refined(noisy, Refine::Moved).second;
   // 4000 points in blocks of 64: at least 63 calls; on a smooth sphere MFPS moves few normals
   // (about 7 % at this noise), so the moved mode runs well under half the blocks.
   EXPECT_GE(all, 63);
   EXPECT_LT(moved, all / 2) << "all " << all << ", moved " << moved;
+}
+
+TEST(CandidateMix, AutoRunsTheNetworkEverywhereOnlyOnANoisyCloud) {
+  if (!nhnet_available()) GTEST_FAIL() << "this build has no libtorch: the default method needs it";
+  EXPECT_EQ(EstimateOptions{}.model.refine, Refine::Auto);
+  // 0.6 % noise: the noise ratio is far above auto_noise_ratio, so auto is all, bit for bit.
+  const Points noisy = with_noise(fixtures::sphere(4000, 6).points, 0.021, 6);
+  const auto [noisy_auto, noisy_calls] = refined(noisy, Refine::Auto);
+  const auto [noisy_all, all_calls] = refined(noisy, Refine::All);
+  EXPECT_GE(noisy_auto.noise_ratio, EstimateOptions{}.model.auto_noise_ratio);
+  EXPECT_TRUE(noisy_auto.normals == noisy_all.normals);
+  EXPECT_EQ(noisy_calls, all_calls);
+  // Exact samples of a cube (flat faces, noise ratio 0): auto is moved, bit for bit, and runs
+  // the network on fewer blocks than all.
+  const Points clean = fixtures::cube(4000, 0.0, 7).points;
+  const auto [clean_auto, clean_calls] = refined(clean, Refine::Auto);
+  const auto [clean_moved, moved_calls] = refined(clean, Refine::Moved);
+  EXPECT_LT(clean_auto.noise_ratio, EstimateOptions{}.model.auto_noise_ratio);
+  EXPECT_TRUE(clean_auto.normals == clean_moved.normals);
+  EXPECT_EQ(clean_calls, moved_calls);
+  EXPECT_LT(clean_calls, refined(clean, Refine::All).second);
 }

@@ -31,13 +31,26 @@ Method method_from_string(const std::string& name) {
   throw InvalidOptions("unknown method '" + name + "' (expected pca, mfps or nhnet)");
 }
 
-bool refine_all_from_string(const std::string& name) {
-  if (name == "all") return true;
-  if (name == "moved") return false;
-  throw InvalidOptions("refine must be 'all' or 'moved', got '" + name + "'");
+Refine refine_from_string(const std::string& name) {
+  if (name == "all") return Refine::All;
+  if (name == "moved") return Refine::Moved;
+  if (name == "auto") return Refine::Auto;
+  throw InvalidOptions("refine must be 'all', 'moved' or 'auto', got '" + name + "'");
 }
 
-const char* refine_name(bool refine_all) { return refine_all ? "all" : "moved"; }
+const char* to_string(Refine refine) {
+  switch (refine) {
+    case Refine::All: return "all";
+    case Refine::Moved: return "moved";
+    case Refine::Auto: return "auto";
+  }
+  return "?";
+}
+
+bool network_everywhere(const ModelOptions& options, double noise_ratio) {
+  if (options.refine == Refine::Auto) return noise_ratio >= options.auto_noise_ratio;
+  return options.refine == Refine::All;
+}
 
 const char* to_string(Method method) {
   switch (method) {

@@ -83,9 +83,9 @@ int64_t refine_block(const DescriptorInput& in, Eigen::Index b, Eigen::Index len
   return kept;
 }
 
-/// The points NH-Net refines with ModelOptions::refine_all = false: those whose MFPS normal is not
-/// their PCA normal (MFPS moved it near a feature). Elsewhere the mix chooses among PCA and its
-/// geometric candidates (jet, half-scale PCA, radial) at a fraction of the network's cost.
+/// The points NH-Net refines when not every point (ModelOptions::refine): those whose MFPS normal
+/// is not their PCA normal (MFPS moved it near a feature). Elsewhere the mix chooses among PCA and
+/// its geometric candidates (jet, half-scale PCA, radial) at a fraction of the network's cost.
 std::vector<uint8_t> moved_by_mfps(const EstimateResult& geometry,
                                    const detail::GeometrySide& side) {
   std::vector<uint8_t> moved(geometry.valid.size(), 0);
@@ -139,7 +139,8 @@ EstimateResult estimate_nhnet(const Points& points, const EstimateOptions& optio
                         options.model.candidate_mix ? &side : nullptr);
   // The mix needs the MFPS normals before the network overwrites them; without it, no copy.
   const Normals mfps = options.model.candidate_mix ? geometry.normals : Normals();
-  const bool only_moved = options.model.candidate_mix && !options.model.refine_all;
+  const bool only_moved =
+      options.model.candidate_mix && !network_everywhere(options.model, geometry.noise_ratio);
   const std::vector<uint8_t> moved =
       only_moved ? moved_by_mfps(geometry, side) : std::vector<uint8_t>();
   DescriptorInput in = descriptor_input(points, std::move(geometry), DescriptorOptions{},

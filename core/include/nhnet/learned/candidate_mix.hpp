@@ -3,15 +3,15 @@
 // the same rotated towards the PCA normal by MFPS's blend weight, the PCA normal, the blended
 // MFPS normal, the jet normal (geometry/jet.hpp), the PCA normal at half the scale and the
 // radial normals (geometry/radial.hpp) at both scales. With
-// ModelOptions::refine_all = false NH-Net runs only where MFPS moved the PCA normal (near
-// features; elsewhere its candidate is the MFPS normal, there PCA's), a faster mode with its own
-// fitted weights. A small fixed network
-// (two tanh layers of kMixHidden) maps rotation-invariant features of the point to softmax weights
-// over the candidates; the normal is the normalised weighted sum of the sign-aligned candidates.
-// The candidates disagree most where the paper's network is weakest (organic surfaces at high
-// noise, where the large PCA neighbourhood wins); the mix learns whom to trust there. Weights
-// fitted by tools/fit_candidate_mix.py on the training split only, minimising each training cloud's
-// mean squared angle error (RMS, not the mean).
+// ModelOptions::refine Moved (or Auto on a clean cloud) NH-Net runs only where MFPS moved the PCA
+// normal (near features; elsewhere its candidate is the MFPS normal, there PCA's), a faster mode
+// with its own fitted weights. A small fixed network (two tanh layers of kMixHidden) maps
+// rotation-invariant features of the point to softmax weights over the candidates; the normal is
+// the normalised weighted sum of the sign-aligned candidates. The candidates disagree most where
+// the paper's network is weakest (organic surfaces at high noise, where the large PCA neighbourhood
+// wins); the mix learns whom to trust there. Weights fitted by tools/fit_candidate_mix.py on the
+// training split only, minimising each training cloud's mean squared angle error (RMS, not the
+// mean).
 #pragma once
 
 #include "nhnet/geometry/radial.hpp"
@@ -68,8 +68,9 @@ struct CandidateMixInput {
   const IndexMatrix* knn = nullptr;
   /// The cloud's noise ratio (EstimateResult::noise_ratio).
   double noise_ratio = 0;
-  /// Whether `net` is the network's output at every point (ModelOptions::refine_all) or only
-  /// where MFPS moved the PCA normal (elsewhere it is the MFPS normal): each has its fitted mix.
+  /// Whether `net` is the network's output at every point (network_everywhere(), estimate.hpp) or
+  /// only where MFPS moved the PCA normal (elsewhere it is the MFPS normal): each has its fitted
+  /// mix.
   bool network_everywhere = true;
 };
 

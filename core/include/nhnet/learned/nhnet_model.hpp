@@ -21,6 +21,13 @@ std::string default_model_path();
 
 class NhNetModel;
 
+/// Where the network runs under the candidate mix (ModelOptions::refine).
+enum class Refine {
+  All,    ///< every point
+  Moved,  ///< only where MFPS moved the PCA normal, near features (2-4x less network time)
+  Auto,   ///< All on a noisy cloud, Moved on a clean one (ModelOptions::auto_noise_ratio)
+};
+
 /// Which model the learned stage runs, where, and how many points at a time.
 struct ModelOptions {
   /// Model file (TorchScript from nhnet-export); empty = the shipped model (default_model_path()).
@@ -35,10 +42,16 @@ struct ModelOptions {
   /// Mix the network's normals with the PCA and MFPS candidates (candidate_mix.hpp; not the
   /// paper's, lower RMS); false = the network's normals as they are (the paper's NH-Net).
   bool candidate_mix = true;
-  /// With the candidate mix: run the network on every point (true), or only where MFPS moved the
-  /// PCA normal, near features (false: 2-4x less network time, somewhat higher RMS on smooth
-  /// surfaces; docs/benchmark/candidate-mix/table.md).
-  bool refine_all = true;
+  /// With the candidate mix: where the network runs (Refine above). Moved costs RMS on noisy
+  /// smooth surfaces, where the network's denoising is the best candidate, but little on clean
+  /// clouds; Auto takes each where it pays (docs/design/decisions.md, "Refine auto").
+  Refine refine = Refine::Auto;
+  /// Refine::Auto: the network runs on every point when the cloud's noise ratio
+  /// (EstimateResult::noise_ratio) is at least this, else only on the moved points. Below 0.02
+  /// (20 of 105 noise-free benchmark clouds, no noisy one: those start at 0.047) the network on
+  /// every point lowered the RMS by 0.10 degrees on average for 3.8x the time
+  /// (docs/benchmark/candidate-mix/refine-auto.md).
+  double auto_noise_ratio = 0.02;
 };
 
 /// A loaded model. Loading checks the metadata the exporter wrote (descriptor version, size,

@@ -26,10 +26,13 @@ enum class Method {
 Method method_from_string(const std::string& name);
 const char* to_string(Method method);
 
-/// ModelOptions::refine_all from its front-end name: "all" (true) or "moved" (false); throws
-/// InvalidOptions otherwise. refine_name() is the inverse.
-bool refine_all_from_string(const std::string& name);
-const char* refine_name(bool refine_all);
+/// Parses "all" / "moved" / "auto" (ModelOptions::refine); throws InvalidOptions otherwise.
+Refine refine_from_string(const std::string& name);
+const char* to_string(Refine refine);
+
+/// Whether the network runs on every point (else only where MFPS moved the normal) under
+/// `options` for a cloud of this noise ratio.
+bool network_everywhere(const ModelOptions& options, double noise_ratio);
 
 /// Every front end's default method: NhNet when it can run (this build links libtorch and the
 /// shipped model file, default_model_path(), is there), else Mfps, with `fallback_why` (when
