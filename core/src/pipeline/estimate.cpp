@@ -19,46 +19,60 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <limits>
 #include <memory>
 
 namespace nhnet {
 
+namespace {
+
+// One table per option enum: the name each value has on the command line and in Python.
+template <typename E>
+struct Named {
+  E value;
+  const char* name;
+};
+
+constexpr Named<Method> kMethodNames[] = {
+    {Method::Pca, "pca"}, {Method::Mfps, "mfps"}, {Method::NhNet, "nhnet"}};
+constexpr Named<Refine> kRefineNames[] = {
+    {Refine::All, "all"}, {Refine::Moved, "moved"}, {Refine::Auto, "auto"}};
+
+// The entry called `name`, or nullptr.
+template <typename E, std::size_t N>
+const Named<E>* find_named(const Named<E> (&table)[N], const std::string& name) {
+  for (const auto& entry : table)
+    if (name == entry.name) return &entry;
+  return nullptr;
+}
+
+template <typename E, std::size_t N>
+const char* name_of(const Named<E> (&table)[N], E value) {
+  for (const auto& entry : table)
+    if (entry.value == value) return entry.name;
+  return "?";
+}
+
+}  // namespace
+
 Method method_from_string(const std::string& name) {
-  if (name == "pca") return Method::Pca;
-  if (name == "mfps") return Method::Mfps;
-  if (name == "nhnet") return Method::NhNet;
+  if (const auto* entry = find_named(kMethodNames, name)) return entry->value;
   throw InvalidOptions("unknown method '" + name + "' (expected pca, mfps or nhnet)");
 }
 
 Refine refine_from_string(const std::string& name) {
-  if (name == "all") return Refine::All;
-  if (name == "moved") return Refine::Moved;
-  if (name == "auto") return Refine::Auto;
+  if (const auto* entry = find_named(kRefineNames, name)) return entry->value;
   throw InvalidOptions("refine must be 'all', 'moved' or 'auto', got '" + name + "'");
 }
 
-const char* to_string(Refine refine) {
-  switch (refine) {
-    case Refine::All: return "all";
-    case Refine::Moved: return "moved";
-    case Refine::Auto: return "auto";
-  }
-  return "?";
-}
+const char* to_string(Refine refine) { return name_of(kRefineNames, refine); }
+
+const char* to_string(Method method) { return name_of(kMethodNames, method); }
 
 bool network_everywhere(const ModelOptions& options, double noise_ratio) {
   if (options.refine == Refine::Auto) return noise_ratio >= options.auto_noise_ratio;
   return options.refine == Refine::All;
-}
-
-const char* to_string(Method method) {
-  switch (method) {
-    case Method::Pca: return "pca";
-    case Method::Mfps: return "mfps";
-    case Method::NhNet: return "nhnet";
-  }
-  return "?";
 }
 
 }  // namespace nhnet
