@@ -200,12 +200,14 @@ def load_cloud(data_dir: Path, split: str, c: dict):
 
 
 def cloud_data(data_dir: Path, split: str, c: dict, model, threads: int) -> dict:
+    """model: (TorchScript module, its descriptor version), as nhnet_training's load_model."""
     import nhnet
     import torch
     from scipy.spatial import cKDTree
 
     xyz, gt, rows = load_cloud(data_dir, split, c)
-    d = nhnet.descriptors(xyz, threads=threads)
+    model, version = model
+    d = nhnet.descriptors(xyz, threads=threads, version=version)
     bl = np.asarray(nhnet.estimate(xyz, method="mfps", orient=None, threads=threads).normals)
     p = nhnet.estimate(xyz, method="pca", orient=None, threads=threads)
     feats = d["features"][rows]
@@ -255,7 +257,10 @@ def extend(f: Path, xyz, rows, threads: int) -> None:
 def cmd_data(a) -> int:
     import torch
     torch.set_num_threads(a.threads)
-    model = torch.jit.load(a.model).eval()
+    sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "training"))
+    from nhnet_training.evaluate import load_model
+
+    model = load_model(a.model)
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
     for c in pick_clouds(Path(a.data_dir), a.split):

@@ -57,10 +57,11 @@ auto core_field(T Core::*member) {
 }
 
 /// Bridges the core's progress callback to Python while the GIL is released: at most every
-/// 50 ms it takes the GIL, checks for pending signals (Ctrl-C) and calls the user's
-/// progress(fraction, stage) when given; a pending KeyboardInterrupt, an exception raised by the
-/// callback, or a callback returning False cancels the core call. After the call, rethrow()
-/// re-raises that Python exception in place of nhnet::Cancelled.
+/// 50 ms, and at every change of stage (so a caller can time the stages apart), it takes the GIL,
+/// checks for pending signals (Ctrl-C) and calls the user's progress(fraction, stage) when given; a
+/// pending KeyboardInterrupt, an exception raised by the callback, or a callback returning False
+/// cancels the core call. After the call, rethrow() re-raises that Python exception in place of
+/// nhnet::Cancelled.
 class ProgressBridge {
  public:
   explicit ProgressBridge(py::object user_callback);
@@ -74,6 +75,7 @@ class ProgressBridge {
   bool on_progress(double fraction, const std::string& stage);
   py::object user_;
   std::chrono::steady_clock::time_point last_{};
+  std::string last_stage_;  // the stage of the last report passed on
   bool has_error_ = false;
   bool stopped_ = false;  // once asked to stop, every later call says stop too
   py::object type_, value_, trace_;

@@ -56,8 +56,11 @@ bool ProgressBridge::on_progress(double fraction, const std::string& stage) {
   // OpenMP region: nothing may escape from here, every Python error is stored for later.
   if (stopped_) return false;  // a stage that missed the first "stop" meets it at its next report
   const auto now = std::chrono::steady_clock::now();
-  if (fraction < 1.0 && now - last_ < std::chrono::milliseconds(50)) return true;
+  // A new stage always gets through: otherwise a short stage's time is charged to the one before.
+  const bool same_stage = stage == last_stage_;
+  if (fraction < 1.0 && same_stage && now - last_ < std::chrono::milliseconds(50)) return true;
   last_ = now;
+  if (!same_stage) last_stage_ = stage;
   py::gil_scoped_acquire gil;
   bool go_on = true;
   if (PyErr_CheckSignals() != 0) {  // Ctrl-C: Python's handler raised KeyboardInterrupt

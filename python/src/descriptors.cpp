@@ -27,8 +27,10 @@ void register_descriptors(py::module_& m) {
   m.attr("HEIGHT_NORMALISATION") = kHeightNormalisation;
   m.def(
       "descriptors",
-      [](const py::handle& points, int threads, uint64_t seed, const py::object& progress) {
+      [](const py::handle& points, int threads, uint64_t seed, const py::object& progress,
+         int version) {
         DescribeOptions opt;
+        opt.descriptor = descriptor_options(version);
         opt.estimate.run.threads = threads;
         opt.estimate.mfps.seed = seed;
         const Points pts = to_points(points, "points");
@@ -52,7 +54,7 @@ void register_descriptors(py::module_& m) {
         out["noise_ratio"] = d.geometry.noise_ratio;
         return out;
       },
-      R"(descriptors(points, threads=0, seed=1, progress=None) -> dict
+      R"(descriptors(points, threads=0, seed=1, progress=None, version=DESCRIPTOR_VERSION) -> dict
 
 The NH-Net descriptor of every point (paper Sec. 5.1), computed by the core exactly as
 `nhnet-cli estimate --method nhnet` does: MFPS normals, 9 bilateral-filtered normals rotated into
@@ -61,9 +63,11 @@ the point's canonical frame, and their 9 height maps of 7 x 7.
 Returns a dict: 'features' (N, DESCRIPTOR_SIZE) float32 (NaN rows where invalid), 'normals'
 (N, 3) float64 MFPS normals, 'rotations' (N, 3, 3) float64 (R @ n maps world to the frame),
 'valid' (N,) bool, 'k_used' (descriptor neighbourhood), 'scales_used', 'spacing',
-'noise_ratio'. threads / seed / progress as in nhnet.estimate().)",
+'noise_ratio'. threads / seed / progress as in nhnet.estimate(). version: the descriptor
+version (1 .. DESCRIPTOR_VERSION) a model was trained on; 2 caps the neighbours it sees.)",
       py::arg("points"), py::kw_only(), py::arg("threads") = EstimateOptions{}.run.threads,
-      py::arg("seed") = EstimateOptions{}.mfps.seed, py::arg("progress") = py::none());
+      py::arg("seed") = EstimateOptions{}.mfps.seed, py::arg("progress") = py::none(),
+      py::arg("version") = kDescriptorVersion);
 }
 
 }  // namespace nhnet::python

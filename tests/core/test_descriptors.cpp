@@ -3,6 +3,7 @@
 // scaling of the cloud.
 #include "fixtures.hpp"
 
+#include "nhnet/errors.hpp"
 #include "nhnet/eval/metrics.hpp"
 #include "nhnet/geometry/pca.hpp"
 #include "nhnet/learned/bilateral_filter.hpp"
@@ -166,4 +167,55 @@ TEST(Descriptors, GeometryStageWithoutThePcaBlend) {
   ASSERT_EQ(des.geometry.normals.rows(), plain.normals.rows());
   EXPECT_EQ((des.geometry.normals - plain.normals).cwiseAbs().maxCoeff(), 0.0);
   EXPECT_GT((blended.normals - plain.normals).cwiseAbs().maxCoeff(), 1e-3);  // the blend acts here
+}
+
+TEST(Descriptors, VersionsAndTheirOptions) {
+  EXPECT_EQ(descriptor_options(1).max_neighbours, 0);  // version 1: all k neighbours
+  EXPECT_EQ(descriptor_options(kDescriptorVersion).max_neighbours,
+            DescriptorOptions{}.max_neighbours);  // the latest is the default
+  EXPECT_GT(DescriptorOptions{}.max_neighbours, DescriptorOptions{}.filter.spacing_k + 1);
+  EXPECT_THROW(descriptor_options(kOldestDescriptorVersion - 1), InvalidOptions);
+  EXPECT_THROW(descriptor_options(kDescriptorVersion + 1), InvalidOptions);
+}
+
+TEST(Descriptors, CappedNeighbourhoodIsTheNearestThenEvenlySpreadColumns) {
+  // Version 2 on a noisy cloud (k above the cap): the same features as version 1 on a table
+  // of the nearest spacing_k + 1 columns, then the rest spread evenly out to the k-th.
+  const auto f = fixtures::cube(6000, 0.06, 8);
+  const DescriptorInput in = prepare_descriptors(f.points, DescribeOptions{});
+  const DescriptorOptions capped = descriptor_options(2), all = descriptor_options(1);
+  const int cap = capped.max_neighbours, near = capped.filter.spacing_k + 1;
+  ASSERT_GT(in.k, cap + 10);  // the cap acts on this cloud
+  std::vector<int> cols;
+  for (int c = 0; c < near; ++c) cols.push_back(c);
+  for (int j = 1; j <= cap - near; ++j)
+    cols.push_back(near + int(int64_t(j) * (in.k - near) / (cap - near)) - 1);
+  ASSERT_EQ(cols.back(), in.k - 1);  // the farthest neighbour stays: the maps keep their radius
+  const Eigen::Index n = 500;
+  IndexMatrix picked(n, cap);
+  for (Eigen::Index r = 0; r < n; ++r)
+    for (int c = 0; c < cap; ++c) picked(r, c) = in.knn(r, cols[size_t(c)]);
+  DescriptorMatrix a, b, whole;
+  Rotations ra, rb, rw;
+  const IndexMatrix head = in.knn.topRows(n);
+  compute_descriptors(in.points, in.normals, head, in.k, capped, a, ra);
+  compute_descriptors(in.points, in.normals, picked, cap, all, b, rb);
+  compute_descriptors(in.points, in.normals, head, in.k, all, whole, rw);
+  EXPECT_EQ((a - b).cwiseAbs().maxCoeff(), 0.0f);
+  EXPECT_EQ((ra - rb).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_GT((a - whole).cwiseAbs().maxCoeff(), 1e-3f);  // version 1 sees all k: other maps
+}
+
+TEST(Descriptors, SmallNeighbourhoodIsTheSameInEveryVersion) {
+  // Clean cloud: k below the cap, so versions 1 and 2 describe it identically (a clean cloud's
+  // descriptors, and a version-1 model's results on it, do not move).
+  const auto f = fixtures::cube(3000, 0.0, 5);
+  DescribeOptions one, two;
+  one.descriptor = descriptor_options(1);
+  two.descriptor = descriptor_options(2);
+  const Descriptors d1 = describe(f.points, one), d2 = describe(f.points, two);
+  ASSERT_LE(d2.k_used, two.descriptor.max_neighbours);
+  ASSERT_EQ(d1.features.rows(), d2.features.rows());
+  EXPECT_TRUE(d1.features.cwiseEqual(d2.features).count() + d1.features.array().isNaN().count() ==
+              d1.features.size());
 }

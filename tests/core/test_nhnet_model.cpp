@@ -100,6 +100,14 @@ TEST(NhNetModel, ReproducesPythonOutputs) {
   }
 }
 
+TEST(NhNetModel, KnowsItsDescriptorVersion) {
+  // The golden model was exported for descriptor version 1 (all k neighbours): it still loads,
+  // and the pipeline describes points for it with descriptor_options(1), not the latest.
+  const NhNetModel m(kData + "nhnet_tiny.pt", "cpu", 1);
+  EXPECT_EQ(m.descriptor_version(), 1);
+  EXPECT_EQ(descriptor_options(m.descriptor_version()).max_neighbours, 0);
+}
+
 TEST(NhNetModel, RefusesMismatchAndMissingCuda) {
   try {
     NhNetModel m(kData + "nhnet_tiny_v0.pt", "cpu", 1);

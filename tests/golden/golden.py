@@ -93,9 +93,10 @@ def _python_cases(work, out):
         nhnet.orient(pts, mfps, "viewpoint", viewpoint=(0.0, 0.0, 2.0)).normals)
     d = nhnet.denoise(pts, mfps)
     out["py_denoise_points"] = np.asarray(d.points)
-    desc = nhnet.descriptors(pts[:1500])
-    out["py_describe_features"] = np.asarray(desc["features"])[::25]
-    out["py_describe_rotations"] = np.asarray(desc["rotations"])[::25]
+    for version, key in ((1, "py_describe"), (2, "py_describe_v2")):  # v2: capped neighbours
+        desc = nhnet.descriptors(pts[:1500], version=version)
+        out[key + "_features"] = np.asarray(desc["features"])[::25]
+        out[key + "_rotations"] = np.asarray(desc["rotations"])[::25]
 
 
 def compute():

@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 from typing import List
 
 # Must match the core (core/include/nhnet/learned/descriptors.hpp); the C++ loader checks these.
-DESCRIPTOR_VERSION = 1
+DESCRIPTOR_VERSION = 2
 HEIGHT_NORMALISATION = "cell"
 SIGMA_S = [1.0, 2.0]
 SIGMA_R = [0.1, 0.2, 0.35, 0.5]

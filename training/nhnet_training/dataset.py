@@ -78,7 +78,7 @@ def cloud_samples(path_xyz: Path, path_normals: Path, cfg: TrainConfig, seed: in
     }
 
 
-def core_fingerprint() -> str:
+def core_fingerprint(version: int | None = None) -> str:
     """Short hash of the core's descriptors (MFPS normals included) on a fixed noisy corner cloud:
     it changes whenever the geometry stage or the descriptors change, so caches keyed by it are
     never reused across core versions (a stale cache once mixed two MFPS versions)."""
@@ -91,9 +91,10 @@ def core_fingerprint() -> str:
              np.c_[rng.random(200), np.zeros(200), rng.random(200)],
              np.c_[np.zeros(200), rng.random(200), rng.random(200)]]
     pts = np.concatenate(faces) + rng.normal(0, 0.004, (600, 3))
-    d = nhnet.descriptors(pts, threads=1, seed=1)
+    version = nhnet.DESCRIPTOR_VERSION if version is None else version
+    d = nhnet.descriptors(pts, threads=1, seed=1, version=version)
     h = hashlib.sha256(np.round(np.nan_to_num(d["features"]).astype(np.float64), 4).tobytes())
-    return f"v{nhnet.DESCRIPTOR_VERSION}-{h.hexdigest()[:10]}"
+    return f"v{version}-{h.hexdigest()[:10]}"
 
 
 def build_dataset(cfg: TrainConfig, cache_dir: Path, log=print) -> Dict[str, np.ndarray]:

@@ -41,10 +41,12 @@ def pick_clouds(data_dir: str, per_category: int, categories=None, names=None):
     return out
 
 
-def cloud_data(data_dir: str, c: dict, points: int, cache: Path, threads: int):
+def cloud_data(data_dir: str, c: dict, points: int, cache: Path, threads: int, version: int):
+    """The cloud's descriptors of `version` (a model's descriptor_version) at fixed rows, with
+    the MFPS, pca-auto and true normals there; computed once, then read from `cache`."""
     f = cache / f"{c['name']}.npz"
     if not f.exists():  # stored with at least the default 20 000 rows, subsets taken below
-        _compute_cloud(data_dir, c, max(points, 20000), f, threads)
+        _compute_cloud(data_dir, c, max(points, 20000), f, threads, version)
     with np.load(f) as z:
         d = {k: z[k] for k in z.files}
     d["pca"] = pca_auto(data_dir, c, d["rows"], f.with_suffix(".pca-auto.npy"), threads)
@@ -68,14 +70,15 @@ def pca_auto(data_dir: str, c: dict, rows: np.ndarray, f: Path, threads: int) ->
     return np.load(f)
 
 
-def _compute_cloud(data_dir: str, c: dict, points: int, f: Path, threads: int) -> None:
+def _compute_cloud(data_dir: str, c: dict, points: int, f: Path, threads: int,
+                   version: int) -> None:
     import nhnet
 
     base = Path(data_dir) / "benchmark"
     xyz = np.loadtxt(base / c["files"][0], ndmin=2)
     gt = np.loadtxt(base / c["files"][1], ndmin=2)
     t0 = time.time()
-    d = nhnet.descriptors(xyz, threads=threads)
+    d = nhnet.descriptors(xyz, threads=threads, version=version)
     secs = time.time() - t0
     rng = np.random.default_rng(12345)
     rows = np.sort(rng.choice(len(xyz), min(points, len(xyz)), replace=False))
@@ -85,6 +88,20 @@ def _compute_cloud(data_dir: str, c: dict, points: int, f: Path, threads: int) -
     f.parent.mkdir(parents=True, exist_ok=True)
     np.savez(f.with_suffix(".tmp.npz"), **out)
     f.with_suffix(".tmp.npz").replace(f)
+
+
+def nhnet_descriptor_version() -> int:
+    import nhnet
+
+    return nhnet.DESCRIPTOR_VERSION
+
+
+def load_model(path: str):
+    """(TorchScript module, the descriptor version in its nhnet.json metadata)."""
+    extra = {"nhnet.json": ""}
+    module = torch.jit.load(path, _extra_files=extra).eval()
+    meta = json.loads(extra["nhnet.json"] or "{}")
+    return module, int(meta.get("descriptor_version", nhnet_descriptor_version()))
 
 
 def angles(n, gt):
@@ -143,17 +160,21 @@ def main(argv=None) -> int:
     ap.add_argument("--json", default="", help="write the per-cloud results here")
     a = ap.parse_args(argv)
     torch.set_num_threads(a.threads)
-    models = [(Path(m).parent.name + "/" + Path(m).stem, torch.jit.load(m).eval()) for m in a.model]
+    models = [(Path(m).parent.name + "/" + Path(m).stem,) + load_model(m) for m in a.model]
     from .dataset import core_fingerprint
-    cache = Path(a.cache) / core_fingerprint()  # descriptors of this core version only
+    versions = sorted({v for _, _, v in models} or {nhnet_descriptor_version()})
+    # descriptors of this core version only, one cache per descriptor version
+    caches = {v: Path(a.cache) / core_fingerprint(v) for v in versions}
     rows = []
     for c in pick_clouds(a.data_dir, a.per_category, a.categories, a.clouds):
-        d = cloud_data(a.data_dir, c, a.points, cache, a.threads)
+        data = {v: cloud_data(a.data_dir, c, a.points, caches[v], a.threads, v) for v in versions}
+        d = data[versions[0]]
         r = {"cloud": c["name"], "category": c["category"], "noise": c["noise_percent"],
              "variant": c["variant"], "mfps": angle_stats(angles(d["mfps"], d["gt"])),
              "pca-auto": angle_stats(angles(d["pca"], d["gt"]))}
-        for name, m in models:
+        for name, m, v in models:
             t0 = time.time()
+            d = data[v]
             r[name] = angle_stats(angles(refine(m, d), d["gt"]))
             r[name]["pts_per_s"] = len(d["features"]) / (time.time() - t0)
         rows.append(r)

@@ -7,6 +7,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <string>
+#include <vector>
 
 namespace nhnet {
 
@@ -15,9 +17,49 @@ int descriptor_size(const DescriptorOptions& options) {
   return 3 * f + f * options.map.size * options.map.size;
 }
 
+DescriptorOptions descriptor_options(int version) {
+  if (version < kOldestDescriptorVersion || version > kDescriptorVersion)
+    throw InvalidOptions("descriptor version must be " + std::to_string(kOldestDescriptorVersion) +
+                         ".." + std::to_string(kDescriptorVersion) + ", got " +
+                         std::to_string(version));
+  DescriptorOptions options;
+  if (version == 1) options.max_neighbours = 0;
+  return options;
+}
+
+namespace {
+
+/// The columns of the first k of `knn` that the descriptor sees: all of them when at most
+/// `max_neighbours` (or no cap); else the first `near` (self and the spacing neighbours), then
+/// max_neighbours - near columns evenly spaced over the rest, the k-th (the farthest) last.
+std::vector<int> descriptor_columns(int k, int max_neighbours, int near) {
+  std::vector<int> cols;
+  const int keep = max_neighbours > near ? max_neighbours : k;
+  if (k <= keep) {
+    for (int c = 0; c < k; ++c) cols.push_back(c);
+    return cols;
+  }
+  for (int c = 0; c < near; ++c) cols.push_back(c);
+  const int rest = keep - near, span = k - near;  // columns near .. k - 1
+  for (int j = 1; j <= rest; ++j) cols.push_back(near + int(int64_t(j) * span / rest) - 1);
+  return cols;
+}
+
+}  // namespace
+
 void compute_descriptors(const Points& points, const Normals& normals, const IndexMatrix& knn,
                          int k, const DescriptorOptions& options, DescriptorMatrix& features,
                          Rotations& rotations, const RunContext& run, Eigen::Index first) {
+  const std::vector<int> cols =
+      descriptor_columns(k, options.max_neighbours, options.filter.spacing_k + 1);
+  if (int(cols.size()) < k) {  // version 2 on a large neighbourhood: the spread-out subset
+    IndexMatrix seen(knn.rows(), Eigen::Index(cols.size()));
+    for (Eigen::Index r = 0; r < seen.rows(); ++r)
+      for (Eigen::Index c = 0; c < seen.cols(); ++c) seen(r, c) = knn(r, cols[size_t(c)]);
+    compute_descriptors(points, normals, seen, int(cols.size()), options, features, rotations, run,
+                        first);
+    return;
+  }
   const FeatureNormals filtered =
       bilateral_filter(points, normals, knn, k, options.filter, detail::narrow(run, 0, 0.4), first);
   CanonicalFrames frames =

@@ -22,6 +22,7 @@ NhNetModel::NhNetModel(NhNetModel&&) noexcept = default;
 NhNetModel& NhNetModel::operator=(NhNetModel&&) noexcept = default;
 const std::string& NhNetModel::device() const { unavailable(); }
 const std::string& NhNetModel::metadata() const { unavailable(); }
+int NhNetModel::descriptor_version() const { unavailable(); }
 Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor> NhNetModel::infer(
     const DescriptorMatrix&, int, const RunContext&) const {
   unavailable();

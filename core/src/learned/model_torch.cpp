@@ -84,13 +84,28 @@ void check_numbers(const std::string& meta, const std::string& key, const std::v
   }
 }
 
-void check_metadata(const std::string& meta, const std::string& path) {
+/// The model's descriptor version, checked against those this core computes.
+int descriptor_version_of(const std::string& meta, const std::string& path) {
+  const std::vector<double> got = numbers(json_value(meta, "descriptor_version"));
+  const bool known = got.size() == 1 && got[0] == std::floor(got[0]) &&
+                     got[0] >= kOldestDescriptorVersion && got[0] <= kDescriptorVersion;
+  if (!known)
+    throw ModelError("model " + path + " was trained with descriptor_version = " +
+                     json_value(meta, "descriptor_version") + " but this nhnet computes " +
+                     std::to_string(kOldestDescriptorVersion) + " to " +
+                     std::to_string(kDescriptorVersion) +
+                     "; retrain it (nhnet-train) or use a model made for this version");
+  return int(got[0]);
+}
+
+/// Checks the model's metadata against what this core computes; returns its descriptor version.
+int check_metadata(const std::string& meta, const std::string& path) {
   if (json_value(meta, "format") != "nhnet-model")
     throw ModelError("model " + path +
                      " has no nhnet metadata (nhnet.json); export it with "
                      "nhnet-export");
-  const DescriptorOptions d;
-  check_numbers(meta, "descriptor_version", {double(kDescriptorVersion)}, path);
+  const int version = descriptor_version_of(meta, path);
+  const DescriptorOptions d = descriptor_options(version);
   check_numbers(meta, "descriptor_size", {double(descriptor_size(d))}, path);
   check_numbers(meta, "patch_size", {double(d.map.size)}, path);
   check_numbers(meta, "sigma_s", d.filter.sigma_s, path);
@@ -100,6 +115,7 @@ void check_metadata(const std::string& meta, const std::string& path) {
     throw ModelError("model " + path + " expects height normalisation '" +
                      json_value(meta, "height_normalisation") + "' but this nhnet computes '" +
                      kHeightNormalisation + "'; retrain it (nhnet-train)");
+  return version;
 }
 
 }  // namespace
@@ -117,6 +133,7 @@ struct NhNetModel::Impl {
   torch::Device dev{torch::kCPU};
   std::string device;
   std::string meta;
+  int descriptor_version = kDescriptorVersion;
 };
 
 NhNetModel::NhNetModel(const std::string& path, const std::string& device, int threads)
@@ -145,7 +162,7 @@ NhNetModel::NhNetModel(const std::string& path, const std::string& device, int t
                      torch_message(e));
   }
   impl_->meta = extra["nhnet.json"];
-  check_metadata(impl_->meta, path);
+  impl_->descriptor_version = check_metadata(impl_->meta, path);
   impl_->module.eval();
   at::set_num_threads(threads > 0 ? threads : std::max(1, omp_get_max_threads()));
   // Frozen (weights inlined as constants, batch norms folded into the layers before them) and,
@@ -184,6 +201,7 @@ NhNetModel::NhNetModel(NhNetModel&&) noexcept = default;
 NhNetModel& NhNetModel::operator=(NhNetModel&&) noexcept = default;
 const std::string& NhNetModel::device() const { return impl_->device; }
 const std::string& NhNetModel::metadata() const { return impl_->meta; }
+int NhNetModel::descriptor_version() const { return impl_->descriptor_version; }
 
 Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor> NhNetModel::infer(
     const DescriptorMatrix& features, int batch, const RunContext& run) const {

@@ -67,7 +67,8 @@ int64_t refine_block(const DescriptorInput& in, Eigen::Index b, Eigen::Index len
   const IndexMatrix knn = in.knn.middleRows(b, len);
   DescriptorMatrix features;
   Rotations rot;
-  compute_descriptors(in.points, in.normals, knn, in.k, DescriptorOptions{}, features, rot, run, b);
+  compute_descriptors(in.points, in.normals, knn, in.k,
+                      descriptor_options(model.descriptor_version()), features, rot, run, b);
   const auto local = model.infer(features, options.model.batch, run);
   int64_t kept = 0;
   for (Eigen::Index r = 0; r < len; ++r) {
@@ -143,7 +144,8 @@ EstimateResult estimate_nhnet(const Points& points, const EstimateOptions& optio
       options.model.candidate_mix && !network_everywhere(options.model, geometry.noise_ratio);
   const std::vector<uint8_t> moved =
       only_moved ? moved_by_mfps(geometry, side) : std::vector<uint8_t>();
-  DescriptorInput in = descriptor_input(points, std::move(geometry), DescriptorOptions{},
+  DescriptorInput in = descriptor_input(points, std::move(geometry),
+                                        descriptor_options(loaded->descriptor_version()),
                                         narrow(eo.run, 0.9, 1), moved.empty() ? nullptr : &moved);
   EstimateResult res = std::move(in.geometry);
   res.device_used = loaded->device();

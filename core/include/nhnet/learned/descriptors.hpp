@@ -4,8 +4,10 @@
 // the paper's values): [f_1x f_1y f_1z ... f_Fx f_Fy f_Fz | map_1[0][0] ... map_F[m-1][m-1]].
 // The descriptor's neighbourhood follows the noise-driven scale rule of MFPS: k = ceil(1.5 Kmin)
 // with Kmin the smallest MFPS scale chosen for the cloud (authors: 1.5 * 50 = 75), so patches are
-// comparable at every noise level. The same call feeds training (Python bindings) and inference;
-// the chain that runs the geometry stage first is pipeline/describe.hpp.
+// comparable at every noise level. Version 2 (not the paper's, issue 23) lets the three stages
+// see at most `max_neighbours` of those k, spread over the whole neighbourhood, so a noisy cloud's
+// large k no longer multiplies the descriptor's cost. The same call feeds training (Python
+// bindings) and inference; the chain that runs the geometry stage first is pipeline/describe.hpp.
 #pragma once
 
 #include "nhnet/learned/bilateral_filter.hpp"
@@ -19,8 +21,10 @@
 
 namespace nhnet {
 
-/// Bumped whenever the descriptor's definition changes; models record the version they saw.
-constexpr int kDescriptorVersion = 1;
+/// Bumped whenever the descriptor's definition changes; models record the version they saw and
+/// the core computes every version from kOldestDescriptorVersion on (descriptor_options).
+constexpr int kDescriptorVersion = 2;
+constexpr int kOldestDescriptorVersion = 1;
 /// Name of the height normalisation (recorded in models, checked by the loader).
 constexpr const char* kHeightNormalisation = "cell";
 
@@ -33,7 +37,15 @@ struct DescriptorOptions {
   HeightMapOptions map;
   /// Descriptor neighbourhood = ceil(factor * smallest MFPS scale). Authors' code: 1.5.
   double neighborhood_factor = 1.5;
+  /// Neighbours each point's filter, frame and height maps see (version 2): the nearest
+  /// filter.spacing_k + 1 of the k, then the rest evenly spaced out to the k-th, so the cost is
+  /// flat in the noise-driven k while the map keeps its radius. 0: all k (version 1).
+  int max_neighbours = 64;
 };
+
+/// The options of descriptor `version` (kOldestDescriptorVersion .. kDescriptorVersion): what a
+/// model trained on that version needs. InvalidOptions for any other version.
+DescriptorOptions descriptor_options(int version);
 
 /// Number of floats per point for these options.
 int descriptor_size(const DescriptorOptions& options = {});

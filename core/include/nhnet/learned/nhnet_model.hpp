@@ -70,6 +70,8 @@ class NhNetModel {
   const std::string& device() const;
   /// The metadata JSON stored in the model.
   const std::string& metadata() const;
+  /// The descriptor version the model was trained on (descriptor_options gives its options).
+  int descriptor_version() const;
 
   /// Unit normals in the canonical frame for every row of `features` (N x D), `batch` rows at a
   /// time. Rows with non-finite features give NaN.
