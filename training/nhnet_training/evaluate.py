@@ -179,7 +179,7 @@ def main(argv=None) -> int:
             r[name]["pts_per_s"] = len(d["features"]) / (time.time() - t0)
         rows.append(r)
         print(json.dumps(r), flush=True)
-    names = ["pca-auto", "mfps"] + [n for n, _ in models]
+    names = ["pca-auto", "mfps"] + [n for n, _, _ in models]
     print(report(rows, names))
     if a.json:
         Path(a.json).write_text(json.dumps(rows, indent=1))
