@@ -29,10 +29,13 @@ struct PyEstimateResult {
 PyEstimateResult estimate(const py::handle& points, const std::optional<std::string>& method, int k,
                           std::optional<std::vector<int>> scales, int threads, uint64_t seed,
                           const py::object& orient, const py::object& viewpoint,
-                          const py::object& progress, const std::string& refine) {
+                          const py::object& progress, const std::string& refine,
+                          const std::optional<std::string>& model, const std::string& device) {
   EstimateOptions opt;
   opt.method = method ? method_from_string(*method) : default_method();
   opt.model.refine = refine_from_string(refine);
+  if (model) opt.model.path = *model;
+  opt.model.device = device;
   opt.k = k;
   if (scales) opt.mfps.scales = *scales;
   opt.mfps.seed = seed;
@@ -102,6 +105,12 @@ refine : {'auto', 'all', 'moved'}
     radial) elsewhere: much less network time, PCA's accuracy on broad noisy smooth surfaces;
     'auto' (default): 'all' on a noisy cloud, 'moved' on a clean one (noise ratio below 0.02),
     where the network adds little away from features.
+model : str, optional
+    NH-Net only (nhnet-cli --model): a model file from nhnet-train / nhnet-export; None
+    (default): $NHNET_MODEL if set, else the shipped model.
+device : {'auto', 'cpu', 'cuda'}
+    NH-Net only (nhnet-cli --device): where the network runs; 'auto' (default) takes a GPU
+    when libtorch sees one.
 
 The GIL is released while the core runs; Ctrl-C interrupts it (KeyboardInterrupt).
 
@@ -176,7 +185,8 @@ void register_estimate(py::module_& m) {
       py::arg("scales") = py::none(), py::arg("threads") = defaults.run.threads,
       py::arg("seed") = defaults.mfps.seed, py::arg("orient") = to_string(kDefaultOrientMode),
       py::arg("viewpoint") = py::none(), py::arg("progress") = py::none(),
-      py::arg("refine") = to_string(defaults.model.refine));
+      py::arg("refine") = to_string(defaults.model.refine), py::arg("model") = py::none(),
+      py::arg("device") = defaults.model.device);
   std::apply([&](const auto&... a) { m.def("estimate", &estimate, estimate_doc.c_str(), a...); },
              args);
 
@@ -190,9 +200,10 @@ void register_estimate(py::module_& m) {
       [](const py::handle& points, const std::optional<std::string>& method, int k,
          std::optional<std::vector<int>> scales, int threads, uint64_t seed,
          const py::object& orient, const py::object& viewpoint, const py::object& progress,
-         const std::string& refine) {
+         const std::string& refine, const std::optional<std::string>& model,
+         const std::string& device) {
         PyEstimateResult r = estimate(points, method, k, std::move(scales), threads, seed, orient,
-                                      viewpoint, progress, refine);
+                                      viewpoint, progress, refine, model, device);
         for (const std::string& w : r.core.warnings)
           if (PyErr_WarnEx(PyExc_RuntimeWarning, ("nhnet: " + w).c_str(), 1) != 0)
             throw py::error_already_set();

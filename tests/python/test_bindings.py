@@ -420,3 +420,26 @@ def test_refine_moved_is_the_clis_fast_mode(tmp_path):
     assert np.nanmax(angles_deg(moved, default)) > 0.1
     with pytest.raises(ValueError, match="refine must be 'all', 'moved' or 'auto'"):
         nhnet.estimate(pts[:100], method="nhnet", refine="some")
+
+
+def test_estimate_takes_a_model_and_device_like_the_cli(tmp_path):
+    """model= / device= as nhnet-cli's --model / --device: another model gives other normals,
+    the same model file as $NHNET_MODEL gives the same ones (a child process with the variable
+    set), and a missing model or an unknown device is a clear error naming it."""
+    pts = np.loadtxt(SAMPLE)[:3000]
+    tiny = str(REPO / "tests" / "data" / "nhnet_tiny.pt")
+    shipped = nhnet.estimate(pts, method="nhnet", orient=None, threads=2).normals
+    mine = nhnet.estimate(pts, method="nhnet", orient=None, threads=2, model=tiny,
+                          device="cpu").normals
+    cos = np.abs(np.sum(shipped * mine, axis=1)).clip(max=1.0)
+    assert float(np.degrees(np.arccos(cos)).max()) > 1.0  # the tiny model is another network
+    code = ("import sys, numpy as np, nhnet; p = np.loadtxt(sys.argv[1])[:3000]; "
+            "np.save(sys.argv[2], nhnet.estimate(p, method='nhnet', orient=None, threads=2).normals)")
+    env = dict(os.environ, NHNET_MODEL=tiny)
+    out = tmp_path / "env.npy"
+    subprocess.run([sys.executable, "-c", code, str(SAMPLE), str(out)], env=env, check=True)
+    assert np.array_equal(np.load(out), mine)  # same model, same threads: same bits
+    with pytest.raises(nhnet.InputError, match="nope.pt"):
+        nhnet.estimate(pts, method="nhnet", model="nope.pt")
+    with pytest.raises(nhnet.InvalidOptions, match="gpu"):
+        nhnet.estimate(pts, method="nhnet", device="gpu")
