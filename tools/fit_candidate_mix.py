@@ -200,7 +200,7 @@ def load_cloud(data_dir: Path, split: str, c: dict):
 
 
 def cloud_data(data_dir: Path, split: str, c: dict, model, threads: int) -> dict:
-    """model: (TorchScript module, its descriptor version), as nhnet_training's load_model."""
+    """model: (TorchScript module, its descriptor version), as nhnet_training's model_and_version."""
     import nhnet
     import torch
     from scipy.spatial import cKDTree
@@ -258,9 +258,9 @@ def cmd_data(a) -> int:
     import torch
     torch.set_num_threads(a.threads)
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "training"))
-    from nhnet_training.evaluate import load_model
+    from nhnet_training.evaluate import model_and_version
 
-    model = load_model(a.model)
+    model = model_and_version(a.model)
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
     for c in pick_clouds(Path(a.data_dir), a.split):

@@ -19,6 +19,8 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from .config import DESCRIPTOR_VERSION
+from .export import META_NAME
 from .metrics import angle_stats, mean_of_stats
 
 
@@ -90,18 +92,12 @@ def _compute_cloud(data_dir: str, c: dict, points: int, f: Path, threads: int,
     f.with_suffix(".tmp.npz").replace(f)
 
 
-def nhnet_descriptor_version() -> int:
-    import nhnet
-
-    return nhnet.DESCRIPTOR_VERSION
-
-
-def load_model(path: str):
-    """(TorchScript module, the descriptor version in its nhnet.json metadata)."""
-    extra = {"nhnet.json": ""}
+def model_and_version(path: str):
+    """(TorchScript module, the descriptor version in its metadata), from one read of the file."""
+    extra = {META_NAME: ""}
     module = torch.jit.load(path, _extra_files=extra).eval()
-    meta = json.loads(extra["nhnet.json"] or "{}")
-    return module, int(meta.get("descriptor_version", nhnet_descriptor_version()))
+    meta = json.loads(extra[META_NAME] or "{}")
+    return module, int(meta.get("descriptor_version", DESCRIPTOR_VERSION))
 
 
 def angles(n, gt):
@@ -160,9 +156,9 @@ def main(argv=None) -> int:
     ap.add_argument("--json", default="", help="write the per-cloud results here")
     a = ap.parse_args(argv)
     torch.set_num_threads(a.threads)
-    models = [(Path(m).parent.name + "/" + Path(m).stem,) + load_model(m) for m in a.model]
+    models = [(Path(m).parent.name + "/" + Path(m).stem,) + model_and_version(m) for m in a.model]
     from .dataset import core_fingerprint
-    versions = sorted({v for _, _, v in models} or {nhnet_descriptor_version()})
+    versions = sorted({v for _, _, v in models} or {DESCRIPTOR_VERSION})
     # descriptors of this core version only, one cache per descriptor version
     caches = {v: Path(a.cache) / core_fingerprint(v) for v in versions}
     rows = []
