@@ -29,16 +29,11 @@ DescriptorOptions descriptor_options(int version) {
 
 namespace {
 
-/// The columns of the first k of `knn` that the descriptor sees: all of them when at most
-/// `max_neighbours` (or no cap); else the first `near` (self and the spacing neighbours), then
-/// max_neighbours - near columns evenly spaced over the rest, the k-th (the farthest) last.
-std::vector<int> descriptor_columns(int k, int max_neighbours, int near) {
+/// The `keep` of the first k columns of `knn` (k > keep > near) the descriptor sees: the first
+/// `near` (self and the spacing neighbours), then keep - near evenly spaced over the rest, the
+/// k-th (the farthest) last.
+std::vector<int> descriptor_columns(int k, int keep, int near) {
   std::vector<int> cols;
-  const int keep = max_neighbours > near ? max_neighbours : k;
-  if (k <= keep) {
-    for (int c = 0; c < k; ++c) cols.push_back(c);
-    return cols;
-  }
   for (int c = 0; c < near; ++c) cols.push_back(c);
   const int rest = keep - near, span = k - near;  // columns near .. k - 1
   for (int j = 1; j <= rest; ++j) cols.push_back(near + int(int64_t(j) * span / rest) - 1);
@@ -50,9 +45,9 @@ std::vector<int> descriptor_columns(int k, int max_neighbours, int near) {
 void compute_descriptors(const Points& points, const Normals& normals, const IndexMatrix& knn,
                          int k, const DescriptorOptions& options, DescriptorMatrix& features,
                          Rotations& rotations, const RunContext& run, Eigen::Index first) {
-  const std::vector<int> cols =
-      descriptor_columns(k, options.max_neighbours, options.filter.spacing_k + 1);
-  if (int(cols.size()) < k) {  // version 2 on a large neighbourhood: the spread-out subset
+  const int keep = options.max_neighbours, near = options.filter.spacing_k + 1;
+  if (keep > near && k > keep) {  // version 2 on a large neighbourhood: the spread-out subset
+    const std::vector<int> cols = descriptor_columns(k, keep, near);
     IndexMatrix seen(knn.rows(), Eigen::Index(cols.size()));
     for (Eigen::Index r = 0; r < seen.rows(); ++r)
       for (Eigen::Index c = 0; c < seen.cols(); ++c) seen(r, c) = knn(r, cols[size_t(c)]);
