@@ -77,6 +77,21 @@ def test_resume_of_a_finished_run_only_exports(tmp_path):
     assert again["steps"] == first["steps"] == 8 and again["val_rms"] == first["val_rms"]
 
 
+def test_resume_with_a_raised_limit_goes_on(tmp_path):
+    # A run stopped by --epochs 1 trains a second epoch when resumed with --epochs 2 (not the
+    # weights of an uninterrupted 2-epoch run: the step-based cosine was sized for one epoch).
+    data = synthetic()
+    first = train(tiny(tmp_path / "r", epochs=1), data=data, log=lambda s: None)
+    assert first["stopped"] == "epochs" and first["steps"] == 8
+    before = weights(tmp_path / "r" / "last.ckpt")
+    more = train(tiny(tmp_path / "r"), data=data, log=lambda s: None, resume=True)
+    assert more["stopped"] == "epochs" and more["steps"] == 16 and more["epochs_run"] == 2
+    after = weights(tmp_path / "r" / "last.ckpt")
+    assert any(not torch.equal(before[k], after[k]) for k in before)
+    history = json.loads((tmp_path / "r" / "history.json").read_text())["history"]
+    assert [h["epoch"] for h in history] == [0, 1]
+
+
 def test_checkpoint_is_replaced_atomically(tmp_path):
     """No temp file is left and last.ckpt always loads (written as temp + rename)."""
     data = synthetic()

@@ -11,7 +11,8 @@ level.
 Resumable: `last.ckpt` (model, optimiser, weight average, schedule position, numpy and torch RNG
 states, epoch and position in it, best validation, history) is written atomically (temp +
 rename) every `--checkpoint-minutes` and after every epoch, and on SIGINT/SIGTERM. `--resume`
-continues from it; with `--lr-schedule cosine-steps` or `constant` the continued run equals an
+continues from it (a finished run goes on when the limit that stopped it, `--max-minutes`,
+`--epochs` or `--patience`, is raised); with `--lr-schedule cosine-steps` or `constant` the continued run equals an
 uninterrupted one exactly (tests/python/test_training_resume.py); the default time-based cosine
 continues from the elapsed training minutes saved in the checkpoint."""
 from __future__ import annotations
@@ -280,6 +281,19 @@ def end_epoch(run: Run, log) -> bool:
     return improved
 
 
+def reopen(s: dict, cfg: TrainConfig) -> bool:
+    """Whether a finished run goes on when resumed: the limit that stopped it (time cap, epochs,
+    patience) was raised on the command line. The time-based cosine then restarts from the
+    elapsed share of the new --max-minutes (a warm restart)."""
+    if s["stopped"] == "time cap":
+        return s["minutes"] < cfg.max_minutes
+    if s["stopped"] == "epochs":
+        return s["epoch"] < cfg.epochs
+    if s["stopped"] == "patience":
+        return s["epoch"] - 1 - s["best_epoch"] < cfg.patience
+    return False
+
+
 def resume_config(cfg: TrainConfig, argv) -> TrainConfig:
     """The checkpoint's config, with the RESUME_OVERRIDABLE fields given on the command line."""
     path = Path(cfg.out_dir) / "last.ckpt"
@@ -314,6 +328,9 @@ def train(cfg: TrainConfig, data: dict | None = None, log=print, resume: bool = 
         run.load_state_dict(torch.load(last, map_location="cpu"))
         log(f"[train] resumed {last}: epoch {run.s['epoch']}, step {run.s['step']}, "
             f"{run.s['minutes']:.1f} min, best {cfg.select_by} {run.s['best']:.3f}")
+        if reopen(run.s, cfg):
+            log(f"[train] the run had stopped ({run.s['stopped']}); the raised limit lets it go on")
+            run.s["stopped"] = ""
     params = sum(p.numel() for p in run.model.parameters())
     if cfg.init_from:
         log(f"[train] warm start: {run.warm} tensors from {cfg.init_from}")
