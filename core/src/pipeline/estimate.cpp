@@ -308,6 +308,18 @@ int shared_columns(const EstimateOptions& options, const detail::Canonical& cano
   return int(std::min<Eigen::Index>(options.neighbours, canon.pts.rows()));
 }
 
+/// Depth the descriptors need of the shared table (SharedTable): descriptor_k of the smallest
+/// MFPS scale as mfps_stage clamps it (50 without scales, as descriptor_input), 0 without a table
+/// or when the cloud has duplicate or non-finite rows (the descriptors then search their own).
+int descriptor_depth(const detail::SharedTable* table, const detail::Canonical& canon,
+                     const ScaleChoice& choice) {
+  if (!table || canon.rows.size() != canon.copies.size()) return 0;
+  const Eigen::Index m = canon.pts.rows();
+  int kmin = choice.scales.empty() ? 50 : std::numeric_limits<int>::max();
+  for (int s : choice.scales) kmin = std::min<int>(kmin, int(std::min<Eigen::Index>(s, m)));
+  return descriptor_k(kmin, table->descriptor, m);
+}
+
 /// EstimateResult::neighbours: the first `cols` columns of the canonical table as input rows.
 void share_neighbours(const IndexMatrix& knn, const detail::Canonical& canon, int cols,
                       const RunContext& run, EstimateResult& res) {
@@ -491,7 +503,8 @@ EstimateResult empty_result(Eigen::Index n) {
 }
 
 EstimateResult estimate_geometry(const Points& points, const EstimateOptions& options,
-                                 const TileOverrides& overrides, GeometrySide* side) {
+                                 const TileOverrides& overrides, GeometrySide* side,
+                                 SharedTable* table) {
   start_threads(options.run.threads);  // before the big allocations
   EstimateResult res = empty_result(points.rows());
   const Canonical canon = canonical_points(points, res.warnings);
@@ -508,9 +521,11 @@ EstimateResult estimate_geometry(const Points& points, const EstimateOptions& op
   const ScaleChoice choice = choose_sizes(options, pts.rows(), res);
   const int kdepth = table_depth(options, choice, pts.rows(), res);
   const int shared = shared_columns(options, canon);
-  neighbour_table(tree, std::max(kdepth, shared), run, knn);
+  const int kdesc = descriptor_depth(table, canon, choice);  // 0: no table handed on
+  neighbour_table(tree, std::max({kdepth, shared, kdesc}), run, knn);
   share_neighbours(knn, canon, shared, run, res);
-  if (knn.cols() > kdepth) knn = knn.leftCols(kdepth).eval();  // only what the stages use
+  const int keep = std::max(kdepth, kdesc);  // the stages take their sizes, not the table's width
+  if (knn.cols() > keep) knn = knn.leftCols(keep).eval();  // only what the stages use
 
   const PcaOptions pca_options{res.k_used, options.method == Method::Mfps};  // MFPS: bandwidth
   const PcaResult pca = pca_normals(pts, knn, pca_options, narrow(run, 0.35, 0.45));
@@ -526,6 +541,10 @@ EstimateResult estimate_geometry(const Points& points, const EstimateOptions& op
     CanonicalSide cs = side_candidates(pts, knn, pca, res.k_used, run);
     cs.weight = std::move(weight);
     scatter_side(cs, knn, canon, *side);
+  }
+  if (kdesc > 0) {
+    table->knn = std::move(knn);
+    table->rows = canon.rows;
   }
   res.spacing = spacing * canon.unit;
   finish_result(res, canon.copies, canon.finite_count);

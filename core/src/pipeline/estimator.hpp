@@ -59,11 +59,25 @@ struct GeometrySide {
   IndexMatrix knn;
 };
 
+/// The geometry stage's neighbour table handed on to the descriptors, so that one k-NN search
+/// serves MFPS and NH-Net's descriptors alike (issue 23).
+struct SharedTable {
+  /// Input: the options of the descriptors that follow; the table reaches their k
+  /// (descriptor_k of the smallest MFPS scale).
+  DescriptorOptions descriptor;
+  /// Output: the canonical points' table (canonical indices, each row sorted by distance, self
+  /// first), at least the descriptors' k deep, and the input row of each canonical point. Left
+  /// empty when some input row is a duplicate or not finite: the descriptors search their own.
+  IndexMatrix knn;
+  std::vector<int64_t> rows;
+};
+
 /// The geometry stage (paper Sec. 4): PCA everywhere, and MFPS near sharp features when
 /// options.method is Mfps (NH-Net's callers pass geometry_options(), which sets it). With
-/// `side`, also what GeometrySide holds.
+/// `side`, also what GeometrySide holds; with `table`, its neighbour table for the descriptors.
 EstimateResult estimate_geometry(const Points& points, const EstimateOptions& options,
-                                 const TileOverrides& overrides, GeometrySide* side = nullptr);
+                                 const TileOverrides& overrides, GeometrySide* side = nullptr,
+                                 SharedTable* table = nullptr);
 
 /// NH-Net on top of the geometry stage (paper Sec. 5, refine.cpp).
 EstimateResult estimate_nhnet(const Points& points, const EstimateOptions& options,
@@ -72,11 +86,14 @@ EstimateResult estimate_nhnet(const Points& points, const EstimateOptions& optio
 /// The descriptor input of a cloud whose geometry stage ran (describe.cpp): the rows with a
 /// normal, their points, normals and k-NN table at the descriptor's size. With `only` (one flag
 /// per input row), only the flagged rows are described: they come first (`described` of them,
-/// each with a k-NN row), the other rows with a normal follow as neighbours.
+/// each with a k-NN row), the other rows with a normal follow as neighbours. With a filled
+/// `table` (estimate_geometry's) and every row with a normal, the rows follow the canonical
+/// order and the table is taken (moved) instead of searched anew.
 /// `options` are checked by the caller (neighborhood_factor > 0).
 DescriptorInput descriptor_input(const Points& points, EstimateResult geometry,
                                  const DescriptorOptions& options, const RunContext& run,
-                                 const std::vector<uint8_t>* only = nullptr);
+                                 const std::vector<uint8_t>* only = nullptr,
+                                 SharedTable* table = nullptr);
 
 /// The options of the geometry stage under the descriptors (training and NH-Net alike): MFPS,
 /// the PCA blend as given, the first 90 % of `options.run`'s progress (the neighbour table of

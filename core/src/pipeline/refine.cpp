@@ -134,19 +134,21 @@ EstimateResult estimate_nhnet(const Points& points, const EstimateOptions& optio
   EstimateOptions eo = options;
   if (cb) eo.run.progress = [cb](double f, const std::string& s) { return cb(0.7 * f, s); };
   // The geometry stage as the model was trained on it (describe.hpp): MFPS without the blend.
+  // One neighbour search for both: the geometry stage's table reaches the descriptors' k.
   GeometrySide side;
+  SharedTable table{descriptor_options(loaded->descriptor_version()), {}, {}};
   EstimateResult geometry =
       estimate_geometry(points, geometry_options(eo, DescribeOptions{}.mfps_pca_blend), overrides,
-                        options.model.candidate_mix ? &side : nullptr);
+                        options.model.candidate_mix ? &side : nullptr, &table);
   // The mix needs the MFPS normals before the network overwrites them; without it, no copy.
   const Normals mfps = options.model.candidate_mix ? geometry.normals : Normals();
   const bool only_moved =
       options.model.candidate_mix && !network_everywhere(options.model, geometry.noise_ratio);
   const std::vector<uint8_t> moved =
       only_moved ? moved_by_mfps(geometry, side) : std::vector<uint8_t>();
-  DescriptorInput in = descriptor_input(points, std::move(geometry),
-                                        descriptor_options(loaded->descriptor_version()),
-                                        narrow(eo.run, 0.9, 1), moved.empty() ? nullptr : &moved);
+  DescriptorInput in =
+      descriptor_input(points, std::move(geometry), table.descriptor, narrow(eo.run, 0.9, 1),
+                       moved.empty() ? nullptr : &moved, &table);
   EstimateResult res = std::move(in.geometry);
   res.device_used = loaded->device();
   res.descriptor_k = in.k;
