@@ -39,6 +39,10 @@ PKGS=(
   time
   # NH-Net: training (python3-torch) and inference in the core (libtorch-dev, same 1.13)
   python3-torch libtorch-dev
+  # their matrix products: Debian's torch calls the libblas.so.3 alternative, which is otherwise
+  # the reference BLAS (~16x slower; docs/design/decisions.md#openblas-under-torch); the OpenMP
+  # build shares torch's and the core's thread pool
+  libopenblas0-openmp
 )
 
 SUDO=""

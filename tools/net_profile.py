@@ -5,7 +5,9 @@
 
 Loads the model as the core does (model_torch.cpp: frozen, then optimize_for_inference), runs
 `reps` timed batches of random descriptors after two warm-up batches, and prints the points per
-second and oneDNN's own time per primitive (ONEDNN_VERBOSE, milliseconds summed over the timed
+second, the BLAS library's speed on one matrix product (Debian's torch takes whichever
+libblas.so.3 the system provides: the reference BLAS is ~16x slower than OpenBLAS), and oneDNN's
+own time per primitive (ONEDNN_VERBOSE, milliseconds summed over the timed
 batches; the run re-executes itself with the variable set, as oneDNN reads it once at start).
 """
 
@@ -35,6 +37,12 @@ def child(args) -> None:
             m(x)
         wall = time.perf_counter() - t
     print(f"POINTS_PER_S {args.batch * args.reps / wall:.0f}", flush=True)
+    a, b = torch.randn(4096, 441), torch.randn(441, 288)  # a matrix product of the MLP's size
+    a @ b
+    t = time.perf_counter()
+    for _ in range(10):
+        a @ b
+    print(f"BLAS_GFLOPS {2 * 4096 * 441 * 288 * 10 / (time.perf_counter() - t) / 1e9:.1f}")
 
 
 def main() -> None:
@@ -52,19 +60,23 @@ def main() -> None:
     out = subprocess.run([sys.executable, __file__, "--child", "--model", args.model, "--batch",
                           str(args.batch), "--threads", str(args.threads), "--reps",
                           str(args.reps)], env=env, capture_output=True, text=True, check=True)
-    timed, pps = False, "?"
+    timed, pps, gflops = False, "?", "?"
     ms: dict[tuple[str, str, str], float] = collections.OrderedDict()
     for line in out.stdout.splitlines():
         if line == "TIMED":
             timed = True
         elif line.startswith("POINTS_PER_S"):
             pps = line.split()[1]
+        elif line.startswith("BLAS_GFLOPS"):
+            gflops = line.split()[1]
+            timed = False  # the BLAS probe is no part of the model's primitives
         elif timed and line.startswith(("onednn_verbose,exec", "dnnl_verbose,exec")):
             f = line.split(",")
             key = (f[3], f[4], f[-2])
             ms[key] = ms.get(key, 0.0) + float(f[-1])
     total = sum(ms.values()) or 1.0
     print(f"{pps} points/s ({args.threads} threads, batch {args.batch}, {args.reps} batches)")
+    print(f"matrix products through BLAS (libblas.so.3): {gflops} GFLOP/s (4096x441 by 441x288)")
     print(f"oneDNN primitives: {total:.0f} ms in all\n")
     print("| primitive | implementation | shape | ms | share |")
     print("|---|---|---|---|---|")

@@ -284,6 +284,35 @@ def test_fit_model_trains_exports_and_starts_at_mfps(tmp_path):
         assert torch.allclose(m(x).norm(dim=1), torch.ones(len(x)), atol=1e-5)
 
 
+def test_mlp_model_trains_exports_and_runs_in_the_core(tmp_path):
+    """arch "mlp" (an MLP per height map, batched matrix products): untrained it returns the
+    self (MFPS) normal exactly (residual, gather's last layer at 0); trained and exported, the
+    TorchScript equals the module, and the core runs it through --model like any NH-Net."""
+    from nhnet_training.model import build_model
+
+    cfg = TrainConfig(arch="mlp", conv1=16, conv2=8, hidden1=8, hidden2=8, epochs=2, batch=256,
+                      out_dir=str(tmp_path / "run"), max_minutes=2)
+    x = torch.from_numpy(samples(3)["features"][:256])
+    with torch.no_grad():
+        start = build_model(cfg).eval()(x)
+    # 0.05 deg: float32's acos of a dot product one ulp below 1 is already 0.02 deg
+    assert float(unoriented(start, x[:, :3]).max()) < 0.05
+    info = train(cfg, data=samples(2), log=lambda s: None)
+    assert np.isfinite(info["val_rms"])
+    path = tmp_path / "run" / "model.pt"
+    assert read_metadata(str(path))["architecture"] == "mlp"
+    net = build_model(cfg)
+    net.load_state_dict(torch.load(str(tmp_path / "run" / "best.ckpt"))["model"])
+    with torch.no_grad():
+        trained = net.eval()(x)
+        assert torch.allclose(torch.jit.load(str(path))(x), trained, atol=1e-5)
+    assert float(unoriented(trained, x[:, :3]).max()) > 0.5  # training moved it off MFPS
+    p, _ = half_cube(2000, 0.01, 4)
+    r = nhnet.estimate(p, method="nhnet", model=str(path), threads=2)
+    normals = np.asarray(r.normals)
+    assert r.failed == 0 and np.allclose(np.linalg.norm(normals, axis=1), 1, atol=1e-6)
+
+
 def test_shipped_v6_model_still_loads():
     """The shipped model (format 1: no model_format key, the paper's architecture, descriptor
     version 1: all k neighbours) loads and runs next to the new format and descriptor."""

@@ -40,7 +40,8 @@ class TrainConfig:
     dropout: float = 0.3
     residual: bool = True                      # output = normalise(self normal + correction)
     arch: str = "nhnet"                        # "nhnet": the paper's design (up to v6); "fit":
-                                               # + learned weighted plane fits (model.NhNetFit)
+                                               # + learned weighted plane fits (model.NhNetFit);
+                                               # "mlp": an MLP per map, conv1/conv2 its widths
     init_from: str = ""                        # warm start: model.pt (TorchScript) or a .ckpt whose
                                                # parameters of the same name and shape are loaded
                                                # (v6 -> the "fit" network's branches and gather)

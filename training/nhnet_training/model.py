@@ -152,12 +152,58 @@ class NhNetFit(nn.Module):
         return F.normalize(blend + self.gather(c), dim=1)
 
 
+class GroupedLinear(nn.Module):
+    """`groups` independent linear layers, one per branch, as one batched matrix product:
+    (G, B, i) -> (G, B, o). libtorch runs it as a batched GEMM (BLAS), where NH-Net's grouped
+    convolutions of a few channels take oneDNN's slower paths."""
+
+    def __init__(self, groups: int, inputs: int, outputs: int):
+        super().__init__()
+        bound = 1.0 / math.sqrt(inputs)  # nn.Linear's initialisation, per branch
+        self.weight = nn.Parameter(torch.empty(groups, inputs, outputs).uniform_(-bound, bound))
+        self.bias = nn.Parameter(torch.empty(groups, 1, outputs).uniform_(-bound, bound))
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return torch.baddbmm(self.bias, x, self.weight)
+
+
+class NhNetMlp(nn.Module):
+    """NH-Net with a small MLP per height map in place of each branch's CNN (issue 23: the
+    network's speed on the CPU). Same input, output and gathering as NhNet: branch f maps its
+    m x m map through `conv1` and `conv2` hidden units to a 3x3 matrix (tanh) applied to its
+    normal. Every branch is a batched matrix product, ~0.05M multiply-adds a point at 64/32."""
+
+    def __init__(self, cfg: TrainConfig, num_normals: int = NUM_NORMALS, patch: int = PATCH_SIZE):
+        super().__init__()
+        f, h1, h2 = num_normals, cfg.conv1, cfg.conv2
+        self.f, self.patch, self.residual = f, patch, cfg.residual
+        self.layer1 = GroupedLinear(f, patch * patch, h1)
+        self.layer2 = GroupedLinear(f, h1, h2)
+        self.layer3 = GroupedLinear(f, h2, 9)
+        self.gather = NhNet(cfg, num_normals, patch).gather  # NhNet's gathering MLP, same init
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        b = x.shape[0]
+        normals = x[:, : 3 * self.f].reshape(b, self.f, 3)
+        maps = x[:, 3 * self.f:].reshape(b, self.f, self.patch * self.patch).transpose(0, 1)
+        h = F.relu(self.layer2(F.relu(self.layer1(maps))))
+        mats = torch.tanh(self.layer3(h)).transpose(0, 1).reshape(b, self.f, 3, 3)
+        c = torch.matmul(mats, normals.unsqueeze(-1)).reshape(b, 3 * self.f)
+        out = self.gather(c)
+        if self.residual:
+            out = out + normals[:, 0, :]
+        return F.normalize(out, dim=1)
+
+
 def build_model(cfg: TrainConfig) -> nn.Module:
-    """The network `cfg.arch` names: "nhnet" (the paper's design, models up to v6) or "fit"."""
+    """The network `cfg.arch` names: "nhnet" (the paper's design, models up to v6), "fit" or
+    "mlp"."""
     if cfg.arch == "nhnet":
         return NhNet(cfg)
     if cfg.arch == "fit":
         return NhNetFit(cfg)
+    if cfg.arch == "mlp":
+        return NhNetMlp(cfg)
     raise ValueError(f"unknown arch '{cfg.arch}' (nhnet, fit)")
 
 
