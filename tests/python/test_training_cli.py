@@ -9,6 +9,7 @@ import subprocess
 from pathlib import Path
 
 import numpy as np
+import pytest
 import torch
 
 import nhnet
@@ -97,8 +98,16 @@ def test_evaluate_runs_models_of_two_descriptor_versions(tmp_path, capsys):
     v1 = REPO / "tests" / "data" / "nhnet_tiny.pt"
     assert main(["--data-dir", str(tmp_path / "data"), "--model", str(v1), str(tmp_path / "v2.pt"),
                  "--per-category", "1", "--points", "500", "--cache", str(tmp_path / "cache"),
-                 "--threads", "1", "--json", str(tmp_path / "r.json")]) == 0
+                 "--threads", "1", "--json", str(tmp_path / "r.json"), "--default"]) == 0
     rows = json.loads((tmp_path / "r.json").read_text())
     assert len(rows) == 1 and {"data/nhnet_tiny", f"{tmp_path.name}/v2"} <= set(rows[0])
+    # --default: the core's whole pipeline with the v2 model, scored at the same 500 points
+    whole = nhnet.estimate_normals(pts, method="nhnet", model=str(tmp_path / "v2.pt"), threads=1,
+                                   orient=None)
+    with np.load(next((tmp_path / "cache").glob("v2-*")) / "f.npz") as z:
+        at = np.sort(np.random.default_rng(12345).choice(len(z["rows"]), 500, replace=False))
+        picked = z["rows"][at]
+    want = np.sqrt(np.mean(angles(whole[picked], gt[picked]) ** 2))
+    assert rows[0][f"{tmp_path.name}/v2 default"]["rms"] == pytest.approx(want, abs=1e-9)
     assert sorted(p.name.split("-")[0] for p in (tmp_path / "cache").iterdir()) == ["v1", "v2"]
     assert "| all | 1 |" in capsys.readouterr().out

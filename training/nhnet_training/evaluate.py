@@ -8,6 +8,10 @@ cloud's points (the whole cloud is processed); reported as RMS, mean, PGP5/PGP10
 over 30 degrees, per category and per noise level (metrics.py).
 
     nhnet-evaluate --data-dir data/generated --model models/nhnet.pt --per-category 3
+
+`--default` adds each model as the default method runs it: the whole cloud through the core's
+pipeline (`nhnet.estimate_normals(method="nhnet", model=M)`: the network, then the candidate mix
+whose weights were fitted to the shipped model's outputs), scored at the same points.
 """
 from __future__ import annotations
 
@@ -92,6 +96,15 @@ def _compute_cloud(data_dir: str, c: dict, points: int, f: Path, threads: int,
     f.with_suffix(".tmp.npz").replace(f)
 
 
+def default_normals(data_dir: str, c: dict, model: str, threads: int) -> np.ndarray:
+    """The default method's normals of the whole cloud with `model` (network and candidate mix,
+    unoriented), as `nhnet-cli estimate --model MODEL` computes them."""
+    import nhnet
+
+    xyz = np.loadtxt(Path(data_dir) / "benchmark" / c["files"][0], ndmin=2)
+    return nhnet.estimate_normals(xyz, method="nhnet", model=model, threads=threads, orient=None)
+
+
 def model_and_version(path: str):
     """(TorchScript module, the descriptor version in its metadata), from one read of the file."""
     extra = {META_NAME: ""}
@@ -154,9 +167,13 @@ def main(argv=None) -> int:
     ap.add_argument("--cache", default="runs/bench_cache")
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--json", default="", help="write the per-cloud results here")
+    ap.add_argument("--default", action="store_true",
+                    help="also each model as the default method runs it (the whole cloud through "
+                         "`--method nhnet --model M`: the network, then the candidate mix)")
     a = ap.parse_args(argv)
     torch.set_num_threads(a.threads)
     models = [(Path(m).parent.name + "/" + Path(m).stem,) + model_and_version(m) for m in a.model]
+    paths = dict(zip([n for n, _, _ in models], a.model))
     from .dataset import core_fingerprint
     versions = sorted({v for _, _, v in models} or {DESCRIPTOR_VERSION})
     # descriptors of this core version only, one cache per descriptor version
@@ -173,9 +190,13 @@ def main(argv=None) -> int:
             d = data[v]
             r[name] = angle_stats(angles(refine(m, d), d["gt"]))
             r[name]["pts_per_s"] = len(d["features"]) / (time.time() - t0)
+            if a.default:
+                r[name + " default"] = angle_stats(angles(
+                    default_normals(a.data_dir, c, paths[name], a.threads)[d["rows"]], d["gt"]))
         rows.append(r)
         print(json.dumps(r), flush=True)
     names = ["pca-auto", "mfps"] + [n for n, _, _ in models]
+    names += [n + " default" for n, _, _ in models] if a.default else []
     print(report(rows, names))
     if a.json:
         Path(a.json).write_text(json.dumps(rows, indent=1))
