@@ -16,6 +16,10 @@ Three steps, each resumable (a cloud's data file is written once, atomically):
     /usr/bin/python3 tools/fit_candidate_mix.py report runs/mix/benchmark \\
         --weights core/src/learned/candidate_mix_weights.inc
 
+`data` also stores each point's descriptor and frame, so `fit --model M` and `report --model M`
+recompute the network's normals for another model of the same descriptor version without a new
+`data` run.
+
 Candidates and features are those of core/include/nhnet/learned/candidate_mix.hpp, computed here
 from the same core calls the pipeline makes (nhnet.descriptors -> the shipped model, nhnet.estimate
 with method mfps and pca); the mix's weights are softmax outputs of a 2-layer tanh network; the
@@ -202,7 +206,6 @@ def load_cloud(data_dir: Path, split: str, c: dict):
 def cloud_data(data_dir: Path, split: str, c: dict, model, threads: int) -> dict:
     """model: (TorchScript module, its descriptor version), as nhnet_training's model_and_version."""
     import nhnet
-    import torch
     from scipy.spatial import cKDTree
 
     xyz, gt, rows = load_cloud(data_dir, split, c)
@@ -210,20 +213,45 @@ def cloud_data(data_dir: Path, split: str, c: dict, model, threads: int) -> dict
     d = nhnet.descriptors(xyz, threads=threads, version=version)
     bl = np.asarray(nhnet.estimate(xyz, method="mfps", orient=None, threads=threads).normals)
     p = nhnet.estimate(xyz, method="pca", orient=None, threads=threads)
-    feats = d["features"][rows]
-    ok = np.isfinite(feats).all(1) & d["valid"][rows]
-    with torch.no_grad():
-        local = model(torch.from_numpy(np.nan_to_num(feats).astype(np.float32))).double().numpy()
+    desc = d["features"][rows].astype(np.float32)
+    desc[~d["valid"][rows]] = np.nan  # no descriptor: the network keeps the MFPS normal
+    rot = d["rotations"][rows]
     un, pca = d["normals"], np.asarray(p.normals)
-    net = np.where(ok[:, None], np.einsum("nji,nj->ni", d["rotations"][rows], local), un[rows])
     _, nb = cKDTree(xyz).query(xyz[rows], k=NEIGHBOURS)
-    return dict(net=unit(net), un=un[rows], bl=bl[rows], pca=pca[rows], gt=gt[rows],
+    return dict(net=net_normals(model, desc, rot, un[rows]), desc=desc, rot=rot,
+                desc_version=version, un=un[rows], bl=bl[rows], pca=pca[rows], gt=gt[rows],
                 xyz=xyz[rows],
                 curv=np.asarray(p.curvature)[rows], noise=d["noise_ratio"],
                 inc_pca=inconsistency(pca, rows, nb), inc_bl=inconsistency(bl, rows, nb),
                 inc_un=inconsistency(un, rows, nb), name=c["name"],
                 cat=c.get("category", ""), level=c["noise_percent"], variant=c["variant"],
                 **geometric_candidates(xyz, rows, pca, int(p.k_used)))
+
+
+def net_normals(model, desc, rot, un):
+    """The network's world-frame normals (R^T y) from descriptors `desc` and their frames `rot`;
+    the MFPS normal `un` where a row has no descriptor (NaN), as the pipeline keeps it."""
+    import torch
+
+    ok = np.isfinite(desc).all(1)
+    with torch.no_grad():
+        local = model(torch.from_numpy(np.nan_to_num(desc).astype(np.float32))).double().numpy()
+    return unit(np.where(ok[:, None], np.einsum("nji,nj->ni", rot, local), un))
+
+
+def with_model(z, model):
+    """Data file z with the network column recomputed by `model` (module, descriptor version)
+    from its stored descriptors: one `data` run serves every model of that descriptor version."""
+    module, version = model
+    if "desc" not in z:
+        raise SystemExit(f"{z['name']}: written before the descriptors were stored: run `data` "
+                         "again to use --model")
+    if int(z["desc_version"]) != version:
+        raise SystemExit(f"{z['name']}: descriptors of version {int(z['desc_version'])}, the "
+                         f"model reads version {version}")
+    z = dict(z)
+    z["net"] = net_normals(module, z["desc"], z["rot"], z["un"])
+    return z
 
 
 def same_points(z: dict, xyz, gt, rows) -> bool:
@@ -303,12 +331,15 @@ def features_and_candidates(z, refine="all"):
     return f, cand
 
 
-def load_dir(d: str, refine: str = "all"):
+def load_dir(d: str, refine: str = "all", model=None):
+    """Features, candidates, truths, cloud ids and cloud names of every data file in d; with
+    `model` (with_model), its network normals instead of the stored ones."""
     X, C, G, cid, meta = [], [], [], [], []
     for i, f in enumerate(sorted(Path(d).glob("*.npz"))):
         if f.name.endswith(".tmp.npz"):
             continue
         z = np.load(f)
+        z = with_model(z, model) if model else z
         x, c = features_and_candidates(z, refine)
         g = unit(z["gt"])
         ok = np.isfinite(x).all(1) & np.isfinite(c).all((1, 2)) & np.isfinite(g).all(1)
@@ -336,11 +367,20 @@ def make_mix(torch):
     return Mix().double()
 
 
+def given_model(a):
+    """(module, descriptor version) of --model, or None (the network normals stored by `data`)."""
+    if not a.model:
+        return None
+    sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "training"))
+    from nhnet_training.evaluate import model_and_version
+    return model_and_version(a.model)
+
+
 def cmd_fit(a) -> int:
     import torch
     torch.manual_seed(a.seed)
     torch.set_num_threads(a.threads)
-    X, C, G, cid, meta = load_dir(a.data, a.refine)
+    X, C, G, cid, meta = load_dir(a.data, a.refine, given_model(a))
     x, c, g = (torch.from_numpy(v) for v in (X, C, G))
     cw = torch.from_numpy(1.0 / np.bincount(cid)[cid])  # every cloud weighs the same
     m = make_mix(torch)
@@ -416,7 +456,7 @@ def cmd_report(a) -> int:
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "training"))
     from nhnet_training.evaluate import report
     from nhnet_training.metrics import angle_stats
-    X, C, G, cid, meta = load_dir(a.data, a.refine)
+    X, C, G, cid, meta = load_dir(a.data, a.refine, given_model(a))
     with torch.no_grad():
         mix = read_inc(Path(a.weights), torch)(torch.from_numpy(X), torch.from_numpy(C)).numpy()
     names = ["net", "net+blend", "pca-auto", "mfps", "jet", "pca-half", "radial", "radial-half",
@@ -459,6 +499,9 @@ def main(argv=None) -> int:
     for q in (f, r):
         q.add_argument("--refine", choices=["all", "moved"], default="all",
                        help="where the network runs (ModelOptions::refine All / Moved)")
+        q.add_argument("--model", default="",
+                       help="recompute the network's normals with this model from the stored "
+                            "descriptors (same descriptor version) instead of data's --model")
     r.add_argument("--weights", required=True)
     a = ap.parse_args(argv)
     return {"data": cmd_data, "fit": cmd_fit, "report": cmd_report,
