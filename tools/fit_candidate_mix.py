@@ -413,7 +413,8 @@ def fmt(v) -> str:
 def write_inc(m, path: Path, a) -> None:
     p = {k: v.detach().numpy() for k, v in m.state_dict().items()}
     rows = lambda w: ",\n    ".join(fmt(r) for r in w)
-    text = f"""// Written by tools/fit_candidate_mix.py (fit {a.data} --refine {a.refine} --epochs {a.epochs} --seed {a.seed});
+    model = f" --model {Path(a.model).name}" if a.model else ""
+    text = f"""// Written by tools/fit_candidate_mix.py (fit {a.data} --refine {a.refine} --epochs {a.epochs} --seed {a.seed}{model});
 // do not edit. Weights of the candidate mix (candidate_mix.hpp), fitted on the training split.
 // clang-format off
 constexpr std::array<double, kMixFeatures> kMean = {fmt(p['mean'])};
