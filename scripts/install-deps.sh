@@ -40,9 +40,9 @@ PKGS=(
   # NH-Net: training (python3-torch) and inference in the core (libtorch-dev, same 1.13)
   python3-torch libtorch-dev
   # their matrix products: Debian's torch calls the libblas.so.3 alternative, which is otherwise
-  # the reference BLAS (~16x slower; docs/design/decisions.md#openblas-under-torch); the OpenMP
-  # build shares torch's and the core's thread pool
-  libopenblas0-openmp
+  # the reference BLAS (~16x slower); BLIS, not OpenBLAS, whose load-time buffers hang a
+  # process under an address-space limit (docs/design/decisions.md#blis-under-torch)
+  libblis4-openmp
 )
 
 SUDO=""

@@ -6,7 +6,7 @@
 Loads the model as the core does (model_torch.cpp: frozen, then optimize_for_inference), runs
 `reps` timed batches of random descriptors after two warm-up batches, and prints the points per
 second, the BLAS library's speed on one matrix product (Debian's torch takes whichever
-libblas.so.3 the system provides: the reference BLAS is ~16x slower than OpenBLAS), and oneDNN's
+libblas.so.3 the system provides: the reference BLAS is ~18x slower than BLIS), and oneDNN's
 own time per primitive (ONEDNN_VERBOSE, milliseconds summed over the timed
 batches; the run re-executes itself with the variable set, as oneDNN reads it once at start).
 """

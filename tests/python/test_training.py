@@ -313,12 +313,12 @@ def test_mlp_model_trains_exports_and_runs_in_the_core(tmp_path):
     assert r.failed == 0 and np.allclose(np.linalg.norm(normals, axis=1), 1, atol=1e-6)
 
 
-def test_shipped_v6_model_still_loads():
-    """The shipped model (format 1: no model_format key, the paper's architecture, descriptor
+def test_v6_model_still_loads():
+    """v6 (shipped until v7; format 1: no model_format key, the paper's architecture, descriptor
     version 1: all k neighbours) loads and runs next to the new format and descriptor."""
     from pathlib import Path
 
-    path = Path(__file__).resolve().parents[2] / "models" / "nhnet.pt"
+    path = Path(__file__).resolve().parents[2] / "models" / "nhnet-v6.pt"
     meta = read_metadata(str(path))
     assert "model_format" not in meta and meta["descriptor_version"] == 1 < DESCRIPTOR_VERSION
     m = torch.jit.load(str(path)).eval()
@@ -328,8 +328,8 @@ def test_shipped_v6_model_still_loads():
     assert torch.allclose(out.norm(dim=1), torch.ones(64), atol=1e-5)
 
 
-def test_fit_model_warm_starts_from_the_shipped_v6():
-    """--init-from models/nhnet.pt: the "fit" network takes v6's branches and gather under the
+def test_fit_model_warm_starts_from_v6():
+    """--init-from models/nhnet-v6.pt: the "fit" network takes v6's branches and gather under the
     same names, so before training it gives v6's output up to the candidate softmax's start
     weight on the self normal (0.9975; the fits share the rest): within 1 deg of v6 here."""
     from pathlib import Path
@@ -337,7 +337,7 @@ def test_fit_model_warm_starts_from_the_shipped_v6():
     from nhnet_training.model import build_model
     from nhnet_training.train import warm_start
 
-    path = str(Path(__file__).resolve().parents[2] / "models" / "nhnet.pt")
+    path = str(Path(__file__).resolve().parents[2] / "models" / "nhnet-v6.pt")
     v6 = torch.jit.load(path).eval()
     cfg = TrainConfig.from_dict(read_metadata(path)["config"])
     cfg.arch = "fit"
@@ -356,7 +356,7 @@ def test_train_from_v6_logs_the_start(tmp_path):
     """--init-from: the warm start's own validation is logged and kept (what training must beat)."""
     from pathlib import Path
 
-    path = str(Path(__file__).resolve().parents[2] / "models" / "nhnet.pt")
+    path = str(Path(__file__).resolve().parents[2] / "models" / "nhnet-v6.pt")
     cfg = TrainConfig(arch="fit", init_from=path, epochs=1, batch=256, out_dir=str(tmp_path / "r"),
                       max_minutes=2)
     logs = []

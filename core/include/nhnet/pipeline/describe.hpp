@@ -16,7 +16,7 @@ struct DescribeOptions {
   DescriptorOptions descriptor;
   /// Geometry stage (MFPS; `method` and `mfps.pca_blend` are ignored) and threads / progress.
   EstimateOptions estimate;
-  /// MFPS PCA blend of the geometry stage. Off: the shipped model (v6) was trained on MFPS
+  /// MFPS PCA blend of the geometry stage. Off: the shipped models (v6, v7) were trained on MFPS
   /// normals without it, and training and inference both come through here, so they agree.
   bool mfps_pca_blend = false;
 };
