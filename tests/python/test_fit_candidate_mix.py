@@ -30,16 +30,21 @@ def random_model(path, seed):
     return model_and_version(str(path))
 
 
-def test_stored_descriptors_give_any_models_network_column(tmp_path):
-    base = tmp_path / "benchmark"
+def one_cloud_benchmark(root):
+    """root/benchmark with one cloud (2 500 points of the bundled noisy sample); its index entry."""
+    base = root / "benchmark"
     base.mkdir()
-    xyz = np.loadtxt(REPO / "data" / "sample" / "fandisk_noise0.6.xyz")[:2500]
-    gt = np.loadtxt(REPO / "data" / "sample" / "fandisk_noise0.6.gt.xyzn")[:2500, 3:6]
-    np.savetxt(base / "f.xyz", xyz)
-    np.savetxt(base / "f.normals", gt)
+    sample = REPO / "data" / "sample"
+    np.savetxt(base / "f.xyz", np.loadtxt(sample / "fandisk_noise0.6.xyz")[:2500])
+    np.savetxt(base / "f.normals", np.loadtxt(sample / "fandisk_noise0.6.gt.xyzn")[:2500, 3:6])
     cloud = {"name": "f", "category": "BigNoise", "noise_percent": 0.6, "variant": "uniform",
              "model": "fandisk", "files": ["f.xyz", "f.normals"]}
     (base / "index.json").write_text(json.dumps({"clouds": [cloud]}))
+    return cloud
+
+
+def test_stored_descriptors_give_any_models_network_column(tmp_path):
+    cloud = one_cloud_benchmark(tmp_path)
     a, b = random_model(tmp_path / "a.pt", 1), random_model(tmp_path / "b.pt", 2)
     za = mix.cloud_data(tmp_path, "benchmark", cloud, a, 1)
     zb = mix.cloud_data(tmp_path, "benchmark", cloud, b, 1)
@@ -52,15 +57,7 @@ def test_stored_descriptors_give_any_models_network_column(tmp_path):
 
 
 def test_fit_and_report_take_a_model(tmp_path, capsys):
-    base = tmp_path / "benchmark"
-    base.mkdir()
-    xyz = np.loadtxt(REPO / "data" / "sample" / "fandisk_noise0.6.xyz")[:2500]
-    gt = np.loadtxt(REPO / "data" / "sample" / "fandisk_noise0.6.gt.xyzn")[:2500, 3:6]
-    np.savetxt(base / "f.xyz", xyz)
-    np.savetxt(base / "f.normals", gt)
-    cloud = {"name": "f", "category": "BigNoise", "noise_percent": 0.6, "variant": "uniform",
-             "model": "fandisk", "files": ["f.xyz", "f.normals"]}
-    (base / "index.json").write_text(json.dumps({"clouds": [cloud]}))
+    one_cloud_benchmark(tmp_path)
     random_model(tmp_path / "a.pt", 1)
     random_model(tmp_path / "b.pt", 2)
     assert mix.main(["data", "--split", "benchmark", "--data-dir", str(tmp_path), "--out",
