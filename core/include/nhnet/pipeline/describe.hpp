@@ -41,7 +41,8 @@ struct DescriptorInput {
   /// Those points and their normals, in the order of `rows`.
   Points points;
   Normals normals;
-  /// described x k neighbour table (indices into `points`) of the first `described` points.
+  /// described x K neighbour table (indices into `points`, K >= k: the first k columns are the k
+  /// nearest) of the first `described` points.
   IndexMatrix knn;
   int k = 0;
   /// How many of the leading points are described (all of them unless a caller chose some).
