@@ -48,11 +48,20 @@ class NhNet(nn.Module):
         normals = x[:, : 3 * self.f].reshape(b, self.f, 3)
         maps = x[:, 3 * self.f:].reshape(b, self.f, self.patch, self.patch)
         mats = self.branches(maps).reshape(b, self.f, 3, 3)
-        c = torch.matmul(mats, normals.unsqueeze(-1)).reshape(b, 3 * self.f)
-        out = self.gather(c)
-        if self.residual:
-            out = out + normals[:, 0, :]
-        return F.normalize(out, dim=1)
+        return head_output(self.gather(transformed(mats, normals)), normals, self.residual)
+
+
+def transformed(mats: torch.Tensor, normals: torch.Tensor) -> torch.Tensor:
+    """Each branch's 3x3 matrix times its normal: (B, F, 3, 3) x (B, F, 3) -> (B, 3F), the
+    gathering MLP's input (paper Fig. 3)."""
+    return torch.matmul(mats, normals.unsqueeze(-1)).reshape(normals.shape[0], -1)
+
+
+def head_output(out: torch.Tensor, normals: torch.Tensor, residual: bool) -> torch.Tensor:
+    """The gathered vector, plus the self normal when the head is residual, made unit."""
+    if residual:
+        out = out + normals[:, 0, :]
+    return F.normalize(out, dim=1)
 
 
 def solve3(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
@@ -144,7 +153,7 @@ class NhNetFit(nn.Module):
         normals = x[:, : 3 * f].reshape(b, f, 3)
         maps = x[:, 3 * f:].reshape(b, f, self.patch, self.patch)
         mats = self.branches(maps).reshape(b, f, 3, 3)
-        c = torch.matmul(mats, normals.unsqueeze(-1)).reshape(b, 3 * f)
+        c = transformed(mats, normals)
         fitted = self.fits(normals, maps)
         cand = torch.cat([normals, fitted], dim=1)  # (B, F + F S, 3)
         alpha = torch.softmax(self.choose(torch.cat([c, fitted.reshape(b, -1)], dim=1)), dim=1)
@@ -188,11 +197,7 @@ class NhNetMlp(nn.Module):
         maps = x[:, 3 * self.f:].reshape(b, self.f, self.patch * self.patch).transpose(0, 1)
         h = F.relu(self.layer2(F.relu(self.layer1(maps))))
         mats = torch.tanh(self.layer3(h)).transpose(0, 1).reshape(b, self.f, 3, 3)
-        c = torch.matmul(mats, normals.unsqueeze(-1)).reshape(b, 3 * self.f)
-        out = self.gather(c)
-        if self.residual:
-            out = out + normals[:, 0, :]
-        return F.normalize(out, dim=1)
+        return head_output(self.gather(transformed(mats, normals)), normals, self.residual)
 
 
 def build_model(cfg: TrainConfig) -> nn.Module:
@@ -204,7 +209,7 @@ def build_model(cfg: TrainConfig) -> nn.Module:
         return NhNetFit(cfg)
     if cfg.arch == "mlp":
         return NhNetMlp(cfg)
-    raise ValueError(f"unknown arch '{cfg.arch}' (nhnet, fit)")
+    raise ValueError(f"unknown arch '{cfg.arch}' (nhnet, fit, mlp)")
 
 
 def unoriented_angle_deg(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
