@@ -20,6 +20,13 @@ int descriptor_k(int kmin, const DescriptorOptions& options, Eigen::Index m) {
                   int(std::ceil(options.neighborhood_factor * kmin - 1e-9)))));
 }
 
+int descriptor_k_of_scales(const std::vector<int>& scales, const DescriptorOptions& options,
+                           Eigen::Index m) {
+  int kmin = scales.empty() ? kDescriptorScaleWithoutMfps : std::numeric_limits<int>::max();
+  for (int s : scales) kmin = std::min<int>(kmin, int(std::min<Eigen::Index>(s, m)));
+  return descriptor_k(kmin, options, m);
+}
+
 namespace detail {
 
 EstimateOptions geometry_options(const EstimateOptions& options, bool pca_blend) {
@@ -95,8 +102,7 @@ DescriptorInput descriptor_input(const Points& points, EstimateResult geometry,
     in.points.row(i) = points.row(in.rows[size_t(i)]);
     in.normals.row(i) = in.geometry.normals.row(in.rows[size_t(i)]);
   }
-  const auto& sc = in.geometry.scales_used;
-  in.k = descriptor_k(sc.empty() ? 50 : *std::min_element(sc.begin(), sc.end()), options, m);
+  in.k = descriptor_k_of_scales(in.geometry.scales_used, options, m);
   if (table_serves(table, in, Eigen::Index(base.size()))) {
     take_table(*table, order, in);
     return in;

@@ -308,16 +308,13 @@ int shared_columns(const EstimateOptions& options, const detail::Canonical& cano
   return int(std::min<Eigen::Index>(options.neighbours, canon.pts.rows()));
 }
 
-/// Depth the descriptors need of the shared table (SharedTable): descriptor_k of the smallest
-/// MFPS scale as mfps_stage clamps it (50 without scales, as descriptor_input), 0 without a table
-/// or when the cloud has duplicate or non-finite rows (the descriptors then search their own).
+/// Depth the descriptors need of the shared table (SharedTable): descriptor_input's k
+/// (descriptor_k_of_scales), 0 without a table or when the cloud has duplicate or non-finite
+/// rows (the descriptors then search their own).
 int descriptor_depth(const detail::SharedTable* table, const detail::Canonical& canon,
                      const ScaleChoice& choice) {
   if (!table || canon.rows.size() != canon.copies.size()) return 0;
-  const Eigen::Index m = canon.pts.rows();
-  int kmin = choice.scales.empty() ? 50 : std::numeric_limits<int>::max();
-  for (int s : choice.scales) kmin = std::min<int>(kmin, int(std::min<Eigen::Index>(s, m)));
-  return descriptor_k(kmin, table->descriptor, m);
+  return descriptor_k_of_scales(choice.scales, table->descriptor, canon.pts.rows());
 }
 
 /// EstimateResult::neighbours: the first `cols` columns of the canonical table as input rows.
@@ -507,7 +504,7 @@ EstimateResult estimate_geometry(const Points& points, const EstimateOptions& op
                                  SharedTable* table) {
   start_threads(options.run.threads);  // before the big allocations
   EstimateResult res = empty_result(points.rows());
-  const Canonical canon = canonical_points(points, res.warnings);
+  Canonical canon = canonical_points(points, res.warnings);  // rows move to `table` at the end
   const Points& pts = canon.pts;
   const RunContext& run = options.run;
   Progress top(run.progress);
@@ -544,7 +541,7 @@ EstimateResult estimate_geometry(const Points& points, const EstimateOptions& op
   }
   if (kdesc > 0) {
     table->knn = std::move(knn);
-    table->rows = canon.rows;
+    table->rows = std::move(canon.rows);  // not used below
   }
   res.spacing = spacing * canon.unit;
   finish_result(res, canon.copies, canon.finite_count);

@@ -61,4 +61,13 @@ void compute_descriptors(const Points& points, const Normals& normals, const Ind
 /// `kmin`: ceil(neighborhood_factor x kmin), at least filter.spacing_k + 1, at most m.
 int descriptor_k(int kmin, const DescriptorOptions& options, Eigen::Index m);
 
+/// Smallest MFPS scale assumed when a cloud's normals came without MFPS scales.
+constexpr int kDescriptorScaleWithoutMfps = 50;
+
+/// descriptor_k of the smallest of the MFPS `scales` (each at most m; without scales,
+/// kDescriptorScaleWithoutMfps): the one rule of the geometry stage's table depth and of the
+/// descriptors' k, so the first serves the second.
+int descriptor_k_of_scales(const std::vector<int>& scales, const DescriptorOptions& options,
+                           Eigen::Index m);
+
 }  // namespace nhnet
