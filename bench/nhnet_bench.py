@@ -213,12 +213,27 @@ def find_open3d_python(explicit: str | None, log) -> tuple[str | None, str]:
 
 # ----------------------------------------------------------------------------- tables
 
-def row_key(rec: dict, category: str) -> str:
-    """Table row of a record: method id, plus k when the category has several K."""
+def run_ks(method: str, category: str, extra_k: list[int]) -> list[int]:
+    """The K values a method runs at on a cloud of the category: [0] for K-free methods; the
+    protocol's K, then --extra-k (a peer's K sweep, for its best K); mfps at one K only."""
+    if not METHODS[method][1]:
+        return [0]
     ks = PROTOCOL_K[category]
+    if method == "mfps":
+        return ks if len(ks) == 1 else []  # paper scales only where the protocol gives one K
+    return ks + [k for k in extra_k if k not in ks]
+
+
+def row_key(rec: dict, ks: set[int]) -> str:
+    """Table row of a record: method id, plus k when the category ran at several K (ks)."""
     if METHODS[rec["method"]][1] and len(ks) > 1:
         return f"{rec['method']} k={rec['k']}"
     return rec["method"]
+
+
+def category_ks(records: list[dict], category: str) -> set[int]:
+    """Every K a K-dependent method ran at on the category's clouds."""
+    return {r["k"] for r in records if r["category"] == category and METHODS[r["method"]][1]}
 
 
 def aggregate(recs: list[dict], ref_time: dict) -> dict:
@@ -272,6 +287,50 @@ def summary_table(groups: dict[str, list[dict]], ref_time: dict, notes: dict) ->
     return lines
 
 
+def pct(a: float | None, b: float | None) -> str:
+    return "—" if a is None or not b else f"{100.0 * (a / b - 1.0):+.1f} %"
+
+
+def bar_table(records: list[dict], categories: list[str], ks_of: dict,
+              ref_time: dict) -> list[str]:
+    """NH-Net against the bars of docs/design/benchmark-protocol.md#bars: RMS against PCA (auto
+    k) and against PCL at its best K of the category (the K of lowest RMS among those run),
+    mean against mfps (auto scales). Empty when the run has no nhnet records."""
+    if not any(r["method"] == "nhnet" for r in records):
+        return []
+
+    def stats(rs: list[dict]) -> dict:
+        return aggregate(rs, ref_time) if rs else {}
+
+    lines = ["## NH-Net against the bars (RMS first)", "",
+             "| category | clouds | nhnet RMS / mean | pca (auto k) RMS | vs pca | PCL best K | "
+             "PCL RMS | vs PCL | mfps (auto) mean | vs mfps |", "|---|" + "---|" * 9]
+    picked: dict[str, list[dict]] = {"nhnet": [], "pca-auto": [], "pcl": [], "mfps-auto": []}
+    for cat in categories + ["Overall"]:
+        if cat == "Overall":
+            rows, best_k = picked, "per category"
+        else:
+            of = lambda m, k=0: [r for r in records  # noqa: E731
+                                 if r["category"] == cat and r["method"] == m and r["k"] == k]
+            pcl = {k: stats(of("pcl-pca", k)) for k in sorted(ks_of[cat])}
+            best_k = min((k for k in pcl if pcl[k].get("ok")),
+                         key=lambda k: pcl[k]["rms_deg"], default=None)
+            rows = {"nhnet": of("nhnet"), "pca-auto": of("pca-auto"), "mfps-auto": of("mfps-auto"),
+                    "pcl": of("pcl-pca", best_k) if best_k is not None else []}
+            for key, rs in rows.items():
+                picked[key] += rs
+        n, p, c, m = (stats(rows[k]) for k in ("nhnet", "pca-auto", "pcl", "mfps-auto"))
+        if not n.get("ok"):
+            continue
+        lines.append(
+            f"| {cat} | {n['ok']} | {n['rms_deg']:.2f} / {n['mean_deg']:.2f} | "
+            f"{fmt(p.get('rms_deg'))} | {pct(n['rms_deg'], p.get('rms_deg'))} | "
+            f"{'—' if best_k is None else best_k} | {fmt(c.get('rms_deg'))} | "
+            f"{pct(n['rms_deg'], c.get('rms_deg'))} | {fmt(m.get('mean_deg'))} | "
+            f"{pct(n['mean_deg'], m.get('mean_deg'))} |")
+    return lines + [""]
+
+
 def build_report(records: list[dict], meta: dict) -> tuple[list[str], dict]:
     # reference (PCL) time per (cloud, K)
     ref_time = {(r["cloud"], r["k"]): r["time_s"] for r in records
@@ -280,6 +339,7 @@ def build_report(records: list[dict], meta: dict) -> tuple[list[str], dict]:
         k = r["k"] or PROTOCOL_K[r["category"]][0]
         r["_ref"] = (r["cloud"], k)
     categories = [c for c in PROTOCOL_K if any(r["category"] == c for r in records)]
+    ks_of = {c: category_ks(records, c) for c in categories}
     notes = meta.get("method_notes", {})
     md = [f"# nhnet benchmark ({'quick' if meta['quick'] else 'full'} run)", "",
           f"- date: {meta['date']}", f"- machine: {meta['machine']}",
@@ -301,13 +361,15 @@ def build_report(records: list[dict], meta: dict) -> tuple[list[str], dict]:
           "max RSS of the method's own process over the clouds (Δ MB: minus its RSS before the "
           "call, i.e. the method's working memory). K per category: "
           + ", ".join(f"{c} {'/'.join(map(str, PROTOCOL_K[c]))}" for c in categories)
+          + (f" (single-K methods also at {'/'.join(map(str, meta['extra_k']))})"
+             if meta.get("extra_k") else "")
           + "; `mfps (paper scales)` = {K/2, K, 3K/2} with PCA k = K for smooth points.", ""]
     agg: dict = {}
     for cat in categories:
         groups: dict[str, list[dict]] = {}
         for r in records:
             if r["category"] == cat:
-                groups.setdefault(row_key(r, cat), []).append(r)
+                groups.setdefault(row_key(r, ks_of[cat]), []).append(r)
         md += [f"## {cat}", ""] + summary_table(groups, ref_time, notes) + [""]
         agg[cat] = {key: aggregate(v, ref_time) for key, v in groups.items()}
     # overall: every cloud, each K-dependent method at its category's main K
@@ -319,6 +381,7 @@ def build_report(records: list[dict], meta: dict) -> tuple[list[str], dict]:
     md += ["## Overall (every cloud above; main K of each category)", ""] + \
         summary_table(groups, ref_time, notes) + [""]
     agg["Overall"] = {key: aggregate(v, ref_time) for key, v in groups.items()}
+    md += bar_table(records, categories, ks_of, ref_time)
     # per noise level
     md += ["## Mean / RMS error (°) per category and noise level", ""]
     for cat in categories:
@@ -330,12 +393,12 @@ def build_report(records: list[dict], meta: dict) -> tuple[list[str], dict]:
                "| method | " + " | ".join(f"{lv:g} %" if v == "uniform" else v
                                           for v, lv in cols) + " |",
                "|---|" + "---|" * len(cols)]
-        keys = sorted({row_key(r, cat) for r in records if r["category"] == cat},
+        keys = sorted({row_key(r, ks_of[cat]) for r in records if r["category"] == cat},
                       key=method_order)
         for key in keys:
             cells = []
             for v, lv in cols:
-                rs = [r for r in records if r["category"] == cat and row_key(r, cat) == key
+                rs = [r for r in records if r["category"] == cat and row_key(r, ks_of[cat]) == key
                       and r["variant"] == v and (lv is None or r["noise"] == lv)
                       and "error" not in r]
                 cells.append(f"{sum(r['mean_deg'] for r in rs) / len(rs):.2f} / "
@@ -465,6 +528,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--resume", action="store_true",
                     help="keep the records already in DIR/records.jsonl (an interrupted run "
                          "with the same selection) and run only what is missing")
+    ap.add_argument("--extra-k", type=lambda v: [int(x) for x in v.split(",")], default=[],
+                    help="comma-separated K values at which the K-dependent methods also run, "
+                         "beyond each category's protocol K (e.g. 18,50,100,200: the issue "
+                         "bar's 'PCL at its best K')")
     ap.add_argument("--timeout", type=float, default=900.0,
                     help="seconds one method may take on one cloud (default 900)")
     a = ap.parse_args(argv)
@@ -537,7 +604,7 @@ def main(argv: list[str] | None = None) -> int:
             "versions": f"PCL {deb_version('libpcl-dev')}, CGAL {deb_version('libcgal-dev')}, "
                         f"Open3D {o3d_version}, nanoflann {deb_version('libnanoflann-dev')}"
                         + model_info,
-            "method_notes": method_notes}
+            "method_notes": method_notes, "extra_k": a.extra_k}
 
     clouds = ensure_data(data, points, categories, models, log)
     clouds = [c for c in clouds if c["category"] in categories
@@ -580,13 +647,11 @@ def main(argv: list[str] | None = None) -> int:
                     f"{i - 1} of {len(clouds)} clouds")
                 break
             gt = data / "benchmark" / next(f for f in c["files"] if f.endswith(".gt.xyzn"))
-            ks = PROTOCOL_K[c["category"]]
             line = []
             for m in methods:
                 needs_k = METHODS[m][1]
-                if m == "mfps" and len(ks) > 1:
-                    continue  # paper scales only where the protocol gives one K
-                for k in (ks if needs_k else [0]):
+                ks = run_ks(m, c["category"], a.extra_k)
+                for k in ks:
                     if (c["name"], c["category"], m, k) in done:
                         continue
                     rec = runner.run(m, k, gt, c["category"])
