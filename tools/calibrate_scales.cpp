@@ -58,9 +58,11 @@ int main(int argc, char** argv) {
       {
         // The noise ratio exactly as the pipeline computes it (scales.hpp).
         const int kp = kNoiseProbeK;
-        const PcaResult probe = pca_normals(p, knn, PcaOptions{kp});
+        ProbeResiduals residual(p.rows(), 2);
+        for (Eigen::Index i = 0; i < p.rows(); ++i)
+          residual.row(i) = probe_residuals(p, &knn(i, 0), kp).transpose();
         const DistanceMatrix d2p = d2.leftCols(kp);
-        std::printf(" rho=%.3f", estimate_noise(d2p, probe.residual_rms).ratio);
+        std::printf(" rho=%.3f", estimate_noise(d2p, residual).ratio);
       }
       for (int k : {8, 12, 18, 25, 35, 50, 75, 112, 150, 200, 250}) {
         const PcaResult r = pca_normals(p, knn, PcaOptions{k});

@@ -110,7 +110,7 @@ EstimateOptions options_from_dict(const py::dict& d) {
   return o;
 }
 
-py::dict decide(const std::vector<std::tuple<DistanceMatrix, Eigen::VectorXd>>& rows,
+py::dict decide(const std::vector<std::tuple<DistanceMatrix, ProbeResiduals>>& rows,
                 const py::dict& options, int64_t finite) {
   std::vector<TileProbeRows> r;
   for (const auto& [d2, residual] : rows) r.push_back({d2, residual});
@@ -178,7 +178,7 @@ void register_tiles(py::module_& m) {
         }
         return py::make_tuple(to_numpy(r.d2), to_numpy(r.residual));
       },
-      "Noise-probe rows (d2 float32 (R, K), residual (R,)) of one tile (tiles.hpp).");
+      "Noise-probe rows (d2 float32 (R, K), residuals (R, 2)) of one tile (tiles.hpp).");
   m.def("_decide_tiles", &decide,
         "The whole cloud's decisions (dict) from every tile's probe rows (tiles.hpp).");
   m.def(

@@ -94,6 +94,12 @@ def core_fingerprint(version: int | None = None) -> str:
     version = nhnet.DESCRIPTOR_VERSION if version is None else version
     d = nhnet.descriptors(pts, threads=1, seed=1, version=version)
     h = hashlib.sha256(np.round(np.nan_to_num(d["features"]).astype(np.float64), 4).tobytes())
+    # and the noise probe on a clean curved cloud, where it sets the sizes of every stage (a probe
+    # change that leaves the noisy corner's sizes alone moved those of detailed clouds)
+    sphere = rng.normal(size=(2000, 3))
+    sphere /= np.linalg.norm(sphere, axis=1, keepdims=True)
+    h.update(np.round(nhnet.estimate(sphere, method="pca", threads=1, orient=None).noise_ratio,
+                      4).tobytes())
     return f"v{version}-{h.hexdigest()[:10]}"
 
 

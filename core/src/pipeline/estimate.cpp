@@ -114,32 +114,27 @@ Probe probe_noise(const Points& pts, const Neighbors& tree, const RunContext& ru
   const Eigen::Index m = pts.rows();
   const int kprobe = int(std::min<Eigen::Index>(kNoiseProbeK, m));
   DistanceMatrix d2;
-  Eigen::VectorXd residual;
+  IndexMatrix local;
+  IndexMatrix& knn = table && m <= kProbeAllPoints ? *table : local;
   if (m <= kProbeAllPoints) {
-    IndexMatrix local;
-    IndexMatrix& knn = table ? *table : local;
     tree.knn_all(kprobe, knn, &d2, narrow(run, 0.02, 0.12));
-    if (kprobe < 4) return out;
-    residual = pca_normals(pts, knn, PcaOptions{kprobe}, narrow(run, 0.12, 0.2)).residual_rms;
   } else {
     const size_t count = size_t(kProbeAllPoints);
     std::vector<int64_t> rows(count);
     const double step = double(m) / double(count);  // > 1: distinct rows, first row 0
     for (size_t r = 0; r < count; ++r)
       rows[r] = std::min<int64_t>(int64_t(m) - 1, int64_t(double(r) * step));
-    IndexMatrix probe;
-    tree.knn_rows(kprobe, rows, probe, &d2, narrow(run, 0.02, 0.06));
-    residual.resize(probe.rows());
-    parallel_for(probe.rows(), run.threads, nullptr, [&](int64_t r) {
-      Eigen::Vector3d ev;
-      fit_plane(pts, &probe(r, 0), kprobe, nullptr, &ev);
-      residual[r] = std::sqrt(std::max(0.0, ev[0]));
-    });
+    tree.knn_rows(kprobe, rows, knn, &d2, narrow(run, 0.02, 0.06));
   }
+  if (kprobe < 4) return out;
+  ProbeResiduals residual(knn.rows(), 2);
+  parallel_for(knn.rows(), run.threads, nullptr, [&](int64_t r) {
+    residual.row(r) = probe_residuals(pts, &knn(r, 0), kprobe).transpose();
+  });
   return probe_from_rows(d2, residual);
 }
 
-Probe probe_from_rows(const DistanceMatrix& d2, const Eigen::VectorXd& residual) {
+Probe probe_from_rows(const DistanceMatrix& d2, const ProbeResiduals& residual) {
   Probe out;
   out.noise = estimate_noise(d2, residual);
   std::vector<double> far(size_t(d2.rows()));

@@ -137,8 +137,8 @@ Probe probe_noise(const Points& pts, const Neighbors& tree, const RunContext& ru
                   IndexMatrix* table);
 
 /// The probe's result from its rows: `d2` (R x K) squared distances to each probed point's K
-/// nearest (self first) and `residual` (R) their PCA residuals, in one length unit.
-Probe probe_from_rows(const DistanceMatrix& d2, const Eigen::VectorXd& residual);
+/// nearest (self first) and `residual` (R x 2) their probe_residuals, in one length unit.
+Probe probe_from_rows(const DistanceMatrix& d2, const ProbeResiduals& residual);
 
 /// What a tiled run (in memory or streamed) hands its tiles: the sizes for the probe's noise level
 /// over m points (the options' k and scales win), the largest neighbourhood the stages use, and

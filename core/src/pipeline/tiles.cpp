@@ -95,7 +95,7 @@ TileProbeRows probe_tile(const Points& pts, int64_t own, int64_t step, double ha
   DistanceMatrix d2;
   tree.knn_rows(k, rows, idx, &d2, RunContext{threads, {}});
   std::vector<Eigen::Index> kept;
-  std::vector<double> residual;
+  std::vector<Eigen::Vector2d> residual;
   for (size_t r = 0; r < rows.size(); ++r) {
     if (halo == 0) {
       const Eigen::RowVector3d p = pts.row(canon.rows[size_t(rows[r])]);
@@ -103,16 +103,15 @@ TileProbeRows probe_tile(const Points& pts, int64_t own, int64_t step, double ha
       const double reach = std::sqrt(double(d2(Eigen::Index(r), k - 1))) * canon.unit;
       if (!(reach < room)) continue;  // the neighbourhood may cross into the next tile
     }
-    Eigen::Vector3d ev;
-    fit_plane(canon.pts, &idx(Eigen::Index(r), 0), k, nullptr, &ev);
-    residual.push_back(std::sqrt(std::max(0.0, ev[0])) * canon.unit);
+    residual.push_back(probe_residuals(canon.pts, &idx(Eigen::Index(r), 0), k) * canon.unit);
     kept.push_back(Eigen::Index(r));
   }
   out.d2.resize(Eigen::Index(kept.size()), k);
   for (size_t r = 0; r < kept.size(); ++r)
     out.d2.row(Eigen::Index(r)) =
         (d2.row(kept[r]).cast<double>() * canon.unit * canon.unit).cast<float>();
-  out.residual = Eigen::Map<const Eigen::VectorXd>(residual.data(), Eigen::Index(residual.size()));
+  out.residual.resize(Eigen::Index(residual.size()), 2);
+  for (size_t r = 0; r < residual.size(); ++r) out.residual.row(Eigen::Index(r)) = residual[r];
   return out;
 }
 
@@ -126,12 +125,12 @@ TileDecisions decide_tiles(const std::vector<TileProbeRows>& rows, const Estimat
     }
   if (count == 0) throw UnprocessableInput("no point has a complete noise-probe neighbourhood");
   DistanceMatrix d2(count, k);
-  Eigen::VectorXd residual(count);
+  ProbeResiduals residual(count, 2);
   Eigen::Index at = 0;
   for (const TileProbeRows& r : rows) {
     if (r.d2.rows() == 0) continue;
     d2.middleRows(at, r.d2.rows()) = r.d2.leftCols(k);
-    residual.segment(at, r.d2.rows()) = r.residual;
+    residual.middleRows(at, r.d2.rows()) = r.residual;
     at += r.d2.rows();
   }
   const detail::Probe probe = detail::probe_from_rows(d2, residual);

@@ -7,6 +7,7 @@
 // point's normal does not depend on how the cloud was cut.
 #pragma once
 
+#include "nhnet/geometry/scales.hpp"
 #include "nhnet/pipeline/estimate.hpp"
 #include "nhnet/types.hpp"
 
@@ -47,10 +48,11 @@ TilePlan plan_tiles(const Points& sample, int64_t finite, int64_t tile_points);
 std::vector<int32_t> route_tiles(const TilePlan& plan, const Points& points);
 
 /// Noise-probe rows of one tile: squared distances to each probed point's nearest neighbours
-/// (self first, frame units) and the residual of the plane through them.
+/// (self first, frame units) and the residuals of the planes through them (R x 2,
+/// probe_residuals: all K and the first kNoiseProbeSmallK).
 struct TileProbeRows {
   DistanceMatrix d2;
-  Eigen::VectorXd residual;
+  ProbeResiduals residual;
 };
 
 /// Rows between two probed points of a tile's own points: `rough` for the first pass (a
