@@ -128,7 +128,10 @@ Probe probe_noise(const Points& pts, const Neighbors& tree, const RunContext& ru
   }
   if (kprobe < 4) return out;
   ProbeResiduals residual(knn.rows(), 2);
-  parallel_for(knn.rows(), run.threads, nullptr, [&](int64_t r) {
+  const RunContext fits = narrow(run, 0.12, 0.2);  // reported and cancellable, as the search
+  Progress progress(fits.progress);
+  if (fits.progress) progress.stage("noise probe", 0, 1);
+  parallel_for(knn.rows(), run.threads, fits.progress ? &progress : nullptr, [&](int64_t r) {
     residual.row(r) = probe_residuals(pts, &knn(r, 0), kprobe).transpose();
   });
   return probe_from_rows(d2, residual);
