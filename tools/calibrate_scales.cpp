@@ -105,7 +105,7 @@ int main(int argc, char** argv) {
       std::printf(" rows=%zu -> %s\n", r.mfps_blend_rows.size(), out.c_str());
     } else {
       // mode: "auto" or a comma list of EstimateOptions overrides: k=..,s=a/b/c,samples=..,
-      // subset=..,rescore=..,refine=..,method=pca|mfps
+      // subset=..,members=..,rescore=..,refine=..,method=pca|mfps
       EstimateOptions o;
       std::string spec = mode == "auto" ? "" : mode;
       size_t pos = 0;
@@ -118,6 +118,7 @@ int main(int argc, char** argv) {
         if (key == "k") o.k = std::stoi(val);
         if (key == "samples") o.mfps.samples = std::stoi(val);
         if (key == "subset") o.mfps.score_subset = std::stoi(val);
+        if (key == "members") o.mfps.fit_members = std::stoi(val);
         if (key == "rescore") o.mfps.rescore = std::stoi(val);
         if (key == "refine") o.mfps.refine_iterations = std::stoi(val);
         if (key == "method") o.method = method_from_string(val);

@@ -94,6 +94,11 @@ def core_fingerprint(version: int | None = None) -> str:
     version = nhnet.DESCRIPTOR_VERSION if version is None else version
     d = nhnet.descriptors(pts, threads=1, seed=1, version=version)
     h = hashlib.sha256(np.round(np.nan_to_num(d["features"]).astype(np.float64), 4).tobytes())
+    # and the same corner under heavy noise, where the sizes are large and MFPS and the bandwidth
+    # take spread subsets of their neighbourhoods (a change there leaves the light corner alone)
+    loud = np.concatenate(faces) + rng.normal(0, 0.04, (600, 3))
+    d = nhnet.descriptors(loud, threads=1, seed=1, version=version)
+    h.update(np.round(np.nan_to_num(d["features"]).astype(np.float64), 4).tobytes())
     # and the noise probe on a clean curved cloud, where it sets the sizes of every stage (a probe
     # change that leaves the noisy corner's sizes alone moved those of detailed clouds)
     sphere = rng.normal(size=(2000, 3))

@@ -5,6 +5,7 @@
 #include "nhnet/errors.hpp"
 #include "nhnet/geometry/pca.hpp"
 #include "util/parallel.hpp"
+#include "util/spread.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -19,6 +20,7 @@ Eigen::VectorXd residual_bandwidth(const Points& points, const IndexMatrix& knn,
   if (knn.rows() != n) throw InvalidOptions("residual_bandwidth: knn must have one row per point");
   const int kp = int(std::min<Eigen::Index>(std::max(3, options.k_patch), knn.cols()));
   const int ka = int(std::min<Eigen::Index>(std::max(1, options.k_average), knn.cols()));
+  const int mp = detail::spread_count(kp, options.max_patches);
 
   // Pass 1: PCA plane (centroid, normal) and summed absolute residual E_i of every kp-NN patch.
   if (planes && (planes->k != kp || planes->centroid.rows() != n || planes->normals.rows() != n))
@@ -46,9 +48,10 @@ Eigen::VectorXd residual_bandwidth(const Points& points, const IndexMatrix& knn,
   });
 
   // Pass 2: every point j takes its residual from the best patch among those centred at its
-  // own kp nearest neighbours, the patch of least E_i exp(q^2). A patch whose score's logarithm
-  // exceeds the best one's by far more than rounding cannot win, and is passed over without
-  // its exp (the same choice as scoring every patch, with a few exp calls a point, not kp).
+  // own kp nearest neighbours (at most mp of them, spread), the patch of least E_i exp(q^2). A
+  // patch whose score's logarithm exceeds the best one's by far more than rounding cannot win, and
+  // is passed over without its exp (the same choice as scoring every patch, with a few exp calls a
+  // point, not kp).
   Eigen::VectorXd err(n);
   if (run.progress) progress.stage("bandwidth", 0.4, 0.8);
   constexpr double kLogMargin = 1e-6;  // >> the relative rounding of exp, log and a product
@@ -56,8 +59,8 @@ Eigen::VectorXd residual_bandwidth(const Points& points, const IndexMatrix& knn,
     const Eigen::Vector3d pj = points.row(j).transpose();
     double best = std::numeric_limits<double>::infinity(), res = 0;
     double log_best = best;
-    for (int t = 0; t < kp; ++t) {
-      const int32_t i = knn(j, t);
+    for (int t = 0; t < mp; ++t) {
+      const int32_t i = knn(j, detail::spread_rank(t, mp, kp));
       const Eigen::Vector3d ni = normal.row(i).transpose();
       const double mu = esum[i] / kp;
       const double o = std::abs((pj - points.row(i).transpose()).dot(ni));

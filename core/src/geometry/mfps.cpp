@@ -11,6 +11,7 @@
 #include "nhnet/geometry/pca.hpp"
 #include "util/fast_math.hpp"
 #include "util/parallel.hpp"
+#include "util/spread.hpp"
 
 #include <Eigen/Eigenvalues>
 
@@ -179,6 +180,8 @@ Scales checked_scales(const Inputs& in) {
   scales.erase(std::unique(scales.begin(), scales.end()), scales.end());
   if (scales.front() < 4) throw InvalidOptions("mfps: scales must be at least 4");
   if (in.options.samples < 1) throw InvalidOptions("mfps: samples must be >= 1");
+  if (in.options.fit_members != 0 && in.options.fit_members < 4)
+    throw InvalidOptions("mfps: fit_members must be 0 (all members) or at least 4");
   return Scales{std::move(scales), in.options.alpha};
 }
 
@@ -358,11 +361,13 @@ PatchPlanes fit_patch_planes(const Inputs& in, const Scales& scales,
       const int K = scales.k[size_t(s)];
       if (first_cand[size_t(j)] >= K) continue;
       patches.fetch_add(1, std::memory_order_relaxed);
-      ps.all.resize(size_t(K));
-      for (int t = 0; t < K; ++t)
-        ps.all.set(size_t(t), in.points.row(in.knn(j, t)).transpose() - pj);
+      const int m = detail::spread_count(K, in.options.fit_members);
+      ps.all.resize(size_t(m));
+      for (int t = 0; t < m; ++t)
+        ps.all.set(size_t(t),
+                   in.points.row(in.knn(j, detail::spread_rank(t, m, K))).transpose() - pj);
       PatchFit fit;
-      if (!fit_patch(ps, K, in.sigma[j], in.options, fit)) continue;
+      if (!fit_patch(ps, m, in.sigma[j], in.options, fit)) continue;
       if (fit.fallback) fallbacks.fetch_add(1, std::memory_order_relaxed);
       const size_t slot = planes.slot(j, s);
       planes.n[slot] = fit.best.n.cast<float>();

@@ -17,6 +17,10 @@ struct BandwidthOptions {
   /// Neighbourhood over which residuals are averaged (authors: 225 = 1.5 Kmax; clamped to the
   /// columns of knn).
   int k_average = 225;
+  /// A point takes its residual from the best of at most this many of the k_patch patches
+  /// around it, spread evenly over their distance ranks (0 = all, the authors' behaviour), so
+  /// that the search's cost per point does not grow with the noise-driven k (issue 23).
+  int max_patches = 128;
   /// Lower bound of a bandwidth as a fraction of the point spacing, so that exactly planar data
   /// keeps a usable (non-zero) kernel.
   double min_fraction_of_spacing = 1e-3;

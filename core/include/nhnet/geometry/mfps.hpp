@@ -52,6 +52,11 @@ struct MfpsOptions {
   int rescore = 3;
   /// IRLS refinement steps of the winning plane (0 = authors' behaviour).
   int refine_iterations = 3;
+  /// A patch of more members fits its plane (Eq. 1-2) to this many of them, the centre and
+  /// members at evenly spaced distance ranks (0 = all members, the authors' behaviour): E is a
+  /// mean, so the subset estimates it without bias, and the cost per patch stops growing with
+  /// the noise-driven K.
+  int fit_members = 128;
   /// Width of the point term exp(-r_i^2 / (f sigma_i)^2) of Eq. 4, as a multiple f of sigma_i
   /// (paper: 1). A wider term stops a point that noise pushed off its own face from preferring
   /// a plane bent across the edge.
@@ -95,6 +100,7 @@ struct MfpsOptions {
     o.score_subset = 0;
     o.rescore = 1;
     o.refine_iterations = 0;
+    o.fit_members = 0;
     o.point_sigma_factor = 1;
     o.posterior_beta = 0;
     o.edge_sigma_factor = 0;

@@ -31,8 +31,10 @@ constexpr int kNoiseProbeK = 75;
 constexpr int kNoiseProbeSmallK = 20;
 /// Clouds with more points probe an evenly spaced subset of this many (estimate.cpp).
 constexpr int64_t kProbeAllPoints = 200000;
-/// Largest patch size the automatic rule picks (memory of the shared neighbour table).
-constexpr int kMaxScale = 300;
+/// Largest patch size the automatic rule picks (time and memory of the shared neighbour table;
+/// 300 before 2026-12-05: on the training split's 30 noisiest clouds MFPS's RMS was 18.43 at
+/// 250 against 18.42, docs/design/decisions.md#a-fixed-cost-per-point-at-high-noise).
+constexpr int kMaxScale = 250;
 
 struct NoiseEstimate {
   /// Point spacing: sqrt(pi / (K - 1)) * median distance to the K-th nearest point (K = the
