@@ -54,6 +54,11 @@ void add_method_options(CLI::App* sub, EstimateArgs& a) {
                   "the network's normals as they are, the paper's (off) " +
                       default_note(a.candidate_mix))
       ->type_name("on|off");
+  sub->add_option("--learned-fit", a.learned_fit,
+                  "NH-Net with the candidate mix: refit each mixed normal by the learned "
+                  "weighted jet fit (on), or keep the mix's normals (off) " +
+                      default_note(a.learned_fit))
+      ->type_name("on|off");
   sub->add_option("--refine", a.refine,
                   "NH-Net with the candidate mix: run the network on every point (all), only "
                   "where MFPS moved the PCA normal near features (moved: faster), or all on a "
@@ -138,9 +143,9 @@ Setup prepare(const EstimateArgs& a) {
   nhnet::EstimateOptions& opt = st.opt;
   // The default is NH-Net; --model or --device alone ask for it too (and fail loudly if it
   // cannot run instead of falling back).
-  const bool nhnet_asked = !a.model.empty() || a.device != "auto" ||
-                           a.candidate_mix != EstimateArgs{}.candidate_mix ||
-                           a.refine != EstimateArgs{}.refine;
+  const bool nhnet_asked =
+      !a.model.empty() || a.device != "auto" || a.candidate_mix != EstimateArgs{}.candidate_mix ||
+      a.learned_fit != EstimateArgs{}.learned_fit || a.refine != EstimateArgs{}.refine;
   const std::string method = !a.method.empty() ? a.method
                              : nhnet_asked
                                  ? "nhnet"
@@ -164,10 +169,14 @@ Setup prepare(const EstimateArgs& a) {
   if (a.candidate_mix != "on" && a.candidate_mix != "off")
     throw nhnet::InvalidOptions("--candidate-mix must be on or off, got '" + a.candidate_mix + "'");
   opt.model.candidate_mix = a.candidate_mix == "on";
+  if (a.learned_fit != "on" && a.learned_fit != "off")
+    throw nhnet::InvalidOptions("--learned-fit must be on or off, got '" + a.learned_fit + "'");
+  opt.model.learned_fit = a.learned_fit == "on";
   opt.model.refine = nhnet::refine_from_string(a.refine);
   if (opt.method != nhnet::Method::NhNet && nhnet_asked)
     throw nhnet::InvalidOptions(
-        "--model, --device, --candidate-mix and --refine only apply to --method nhnet");
+        "--model, --device, --candidate-mix, --learned-fit and --refine only apply to --method "
+        "nhnet");
   st.orient.mode = nhnet::kDefaultOrientMode;
   if (!a.orient.empty()) st.orient = parse_orient(a.orient);
   st.orient.run.threads = opt.run.threads;

@@ -34,6 +34,8 @@ struct EstimateArgs {
   std::string device = nhnet::EstimateOptions{}.model.device;  ///< NH-Net device
   /// NH-Net's candidate mix: on | off
   std::string candidate_mix = nhnet::EstimateOptions{}.model.candidate_mix ? "on" : "off";
+  /// NH-Net's learned weighted jet fit after the mix: on | off
+  std::string learned_fit = nhnet::EstimateOptions{}.model.learned_fit ? "on" : "off";
   std::string refine = nhnet::to_string(nhnet::EstimateOptions{}.model.refine);
   bool stream = false;   ///< --stream: out of core, XYZ input
   std::string temp_dir;  ///< --temp-dir (stream)

@@ -367,7 +367,8 @@ case_bad_parameters() {
     "--k 0" "--k -3" "--k abc" "--k 3.5" "--k 99999999999999999999" "--k=" "--scales 10,x"
     "--scales 2,50" "--scales 50,,100" "--scales ,50" "--scales -5" "--threads -1"
     "--threads two" "--method foo" "--orient sideways" "--seed -1" "--seed x"
-    "--refine some" "--candidate-mix maybe" "--method pca --refine moved"
+    "--refine some" "--candidate-mix maybe" "--learned-fit maybe" "--method pca --refine moved"
+    "--method pca --learned-fit off"
   )
   usage_errors estimate in.xyz out.ply "${bad[@]}"
   expect 2 estimate in.xyz out.unknown

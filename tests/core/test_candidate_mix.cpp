@@ -140,6 +140,7 @@ double rms_of(const Points& pts, const Normals& truth, Method method, bool mix) 
   o.method = method;
   o.model.device = "cpu";
   o.model.candidate_mix = mix;
+  o.model.learned_fit = false;  // the mix alone (test_learned_fit.cpp: the fit after it)
   const EstimateResult r = estimate_normals(pts, o);
   double sum = 0;
   for (Eigen::Index i = 0; i < r.normals.rows(); ++i) {

@@ -12,9 +12,11 @@
 #include "nhnet/geometry/radial.hpp"
 #include "nhnet/geometry/scales.hpp"
 #include "nhnet/learned/candidate_mix.hpp"
+#include "nhnet/learned/learned_fit.hpp"
 #include "nhnet/neighbors/neighbors.hpp"
 #include "pipeline/estimator.hpp"
 #include "util/parallel.hpp"
+#include "util/spread.hpp"
 #include "util/stats.hpp"
 
 #include <algorithm>
@@ -315,6 +317,25 @@ int descriptor_depth(const detail::SharedTable* table, const detail::Canonical& 
   return descriptor_k_of_scales(choice.scales, table->descriptor, canon.pts.rows());
 }
 
+/// Depth the learned fit needs of the shared table (learned_fit_k), 0 without it or when the
+/// cloud has fewer points than that (the mix's normals stay).
+int fit_depth(const EstimateOptions& options, const detail::GeometrySide* side, int k,
+              Eigen::Index m) {
+  if (!side || !options.model.learned_fit || learned_fit_k(k) > m) return 0;
+  return learned_fit_k(k);
+}
+
+/// The learned fit's members (canonical rows): kFitMembers spread over the first `depth`
+/// columns of `knn` (util/spread.hpp); empty when depth is 0.
+IndexMatrix fit_members(const IndexMatrix& knn, int depth) {
+  IndexMatrix members;
+  if (depth <= 0) return members;
+  members.resize(knn.rows(), kFitMembers);
+  for (int t = 0; t < kFitMembers; ++t)
+    members.col(t) = knn.col(detail::spread_rank(t, kFitMembers, depth));
+  return members;
+}
+
 /// EstimateResult::neighbours: the first `cols` columns of the canonical table as input rows.
 void share_neighbours(const IndexMatrix& knn, const detail::Canonical& canon, int cols,
                       const RunContext& run, EstimateResult& res) {
@@ -398,6 +419,7 @@ struct CanonicalSide {
   Eigen::VectorXd half_variation;
   RadialResult radial, radial_half;
   Eigen::VectorXd weight;  // empty without MFPS
+  IndexMatrix members;     // empty without the learned fit
 };
 
 /// A RadialResult standing in where the cloud is too small for one: all NaN.
@@ -448,6 +470,9 @@ void scatter_side(const CanonicalSide& cs, const IndexMatrix& knn, const detail:
   const Eigen::Index kn = std::min<Eigen::Index>(kMixNeighbours, knn.cols());
   side.knn.resize(n, kn);
   for (Eigen::Index i = 0; i < n; ++i) side.knn.row(i).setConstant(int32_t(i));
+  side.members.resize(cs.members.rows() > 0 ? n : 0, kFitMembers);
+  for (Eigen::Index i = 0; i < side.members.rows(); ++i)
+    side.members.row(i).setConstant(int32_t(i));
   auto put = [](Normals& out, int64_t row, const Eigen::RowVector3d& v) {
     if (v.allFinite()) out.row(row) = v.normalized();  // as scatter()
   };
@@ -461,6 +486,8 @@ void scatter_side(const CanonicalSide& cs, const IndexMatrix& knn, const detail:
     put_radial(side.radial_half, row, cs.radial_half, i);
     if (cs.weight.size() == cs.pca.rows()) side.blend_weight[row] = cs.weight[i];
     for (Eigen::Index j = 0; j < kn; ++j) side.knn(row, j) = int32_t(canon.rows[size_t(knn(i, j))]);
+    for (Eigen::Index j = 0; j < cs.members.cols(); ++j)
+      side.members(row, j) = int32_t(canon.rows[size_t(cs.members(i, j))]);
   }
   detail::copy_to_duplicates(canon.copies, [&](Eigen::Index i, Eigen::Index first) {
     for (Normals* out : {&side.pca, &side.jet, &side.half}) out->row(i) = out->row(first);
@@ -469,6 +496,7 @@ void scatter_side(const CanonicalSide& cs, const IndexMatrix& knn, const detail:
     put_radial(side.radial, i, side.radial, first);
     put_radial(side.radial_half, i, side.radial_half, first);
     side.knn.row(i) = side.knn.row(first);
+    if (side.members.rows() > 0) side.members.row(i) = side.members.row(first);
   });
 }
 
@@ -516,10 +544,12 @@ EstimateResult estimate_geometry(const Points& points, const EstimateOptions& op
   const ScaleChoice choice = choose_sizes(options, pts.rows(), res);
   const int kdepth = table_depth(options, choice, pts.rows(), res);
   const int shared = shared_columns(options, canon);
-  const int kdesc = descriptor_depth(table, canon, choice);  // 0: no table handed on
-  neighbour_table(tree, std::max({kdepth, shared, kdesc}), run, knn);
+  const int kdesc = descriptor_depth(table, canon, choice);           // 0: no table handed on
+  const int kfit = fit_depth(options, side, res.k_used, pts.rows());  // 0: no learned fit
+  neighbour_table(tree, std::max({kdepth, shared, kdesc, kfit}), run, knn);
   share_neighbours(knn, canon, shared, run, res);
-  const int keep = std::max(kdepth, kdesc);  // the stages take their sizes, not the table's width
+  // The stages take their sizes, not the table's width.
+  const int keep = std::max({kdepth, kdesc, kfit});
   if (knn.cols() > keep) knn = knn.leftCols(keep).eval();  // only what the stages use
 
   const PcaOptions pca_options{res.k_used, options.method == Method::Mfps};  // MFPS: bandwidth
@@ -535,6 +565,7 @@ EstimateResult estimate_geometry(const Points& points, const EstimateOptions& op
   if (side) {
     CanonicalSide cs = side_candidates(pts, knn, pca, res.k_used, run);
     cs.weight = std::move(weight);
+    cs.members = fit_members(knn, kfit);
     scatter_side(cs, knn, canon, *side);
   }
   if (kdesc > 0) {

@@ -57,6 +57,10 @@ struct GeometrySide {
   /// N x kMixNeighbours (fewer in a tiny cloud) nearest input rows of each point, self first;
   /// a point without a normal lists only itself, a duplicate its first copy's row.
   IndexMatrix knn;
+  /// N x kFitMembers members of each point for the learned fit (learned/learned_fit.hpp), spread
+  /// over its learned_fit_k(k_used) nearest, input rows, self first; empty when the cloud has
+  /// fewer points than that.
+  IndexMatrix members;
 };
 
 /// The geometry stage's neighbour table handed on to the descriptors, so that one k-NN search

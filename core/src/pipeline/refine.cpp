@@ -1,9 +1,11 @@
 // NH-Net refinement of the MFPS normals (paper Sec. 5): the geometry stage's MFPS normals, their
 // descriptors (learned/descriptors.hpp), the trained model (learned/nhnet_model.hpp), then each
 // frame normal back to world coordinates, R^T n; block by block so memory stays bounded. Last,
-// not the paper's, the candidate mix (learned/candidate_mix.hpp).
+// not the paper's, the candidate mix (learned/candidate_mix.hpp) and the learned weighted jet fit
+// (learned/learned_fit.hpp).
 #include "nhnet/errors.hpp"
 #include "nhnet/learned/candidate_mix.hpp"
+#include "nhnet/learned/learned_fit.hpp"
 #include "pipeline/estimator.hpp"
 #include "util/parallel.hpp"
 #include "util/shared_setting.hpp"
@@ -120,6 +122,21 @@ void mix_stage(const Normals& mfps, const detail::GeometrySide& side, bool every
     if (res.valid[size_t(i)]) res.normals.row(i) = mixed.row(i);
 }
 
+/// The learned weighted jet fit (learned_fit.hpp) of every point with a normal, on the mixed
+/// normals in `res`; nothing when the cloud was too small for its members.
+void fit_stage(const Points& points, const detail::GeometrySide& side, const RunContext& run,
+               EstimateResult& res) {
+  if (side.members.rows() != res.normals.rows()) return;
+  LearnedFitInput fi;
+  fi.points = &points;
+  fi.normals = &res.normals;
+  fi.members = &side.members;
+  fi.noise_ratio = res.noise_ratio;
+  const Normals fitted = learned_fit(fi, run);
+  for (Eigen::Index i = 0; i < fitted.rows(); ++i)
+    if (res.valid[size_t(i)] && fitted.row(i).allFinite()) res.normals.row(i) = fitted.row(i);
+}
+
 }  // namespace
 
 namespace detail {
@@ -171,6 +188,7 @@ EstimateResult estimate_nhnet(const Points& points, const EstimateOptions& optio
     run.progress = cb ? ProgressCallback([cb](double, const std::string& s) { return cb(1, s); })
                       : ProgressCallback();
     mix_stage(mfps, side, !only_moved, run, res);
+    if (options.model.learned_fit) fit_stage(points, side, run, res);
   }
   if (kept > 0)
     res.warnings.push_back(std::to_string(kept) +

@@ -42,6 +42,9 @@ struct ModelOptions {
   /// Mix the network's normals with the PCA and MFPS candidates (candidate_mix.hpp; not the
   /// paper's, lower RMS); false = the network's normals as they are (the paper's NH-Net).
   bool candidate_mix = true;
+  /// With the candidate mix: refit each mixed normal by the learned weighted jet fit
+  /// (learned_fit.hpp; not the paper's, lower RMS); false = the mix's normals.
+  bool learned_fit = true;
   /// With the candidate mix: where the network runs (Refine above). Moved costs RMS on noisy
   /// smooth surfaces, where the network's denoising is the best candidate, but little on clean
   /// clouds; Auto takes each where it pays (docs/design/decisions.md, "Refine auto").

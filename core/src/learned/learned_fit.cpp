@@ -1,0 +1,184 @@
+// Learned weighted jet fit of --method nhnet (learned/learned_fit.hpp; not the paper's): per
+// point, member features in the frame of the mixed normal, a two-layer ReLU embedding per member,
+// its max-pool, softplus weights per member and a sigmoid gate (blocks of points through one
+// matrix product per layer), then a weighted degree-2 height fit. The weights are in learned_fit_weights.inc, written by tools/fit_learned_fit.py
+// (docs/design/decisions.md#learned-weighted-jet-fit); the arithmetic here is that tool's
+// LearnedFit.forward, step for step.
+#include "nhnet/learned/learned_fit.hpp"
+
+#include "nhnet/errors.hpp"
+#include "util/parallel.hpp"
+
+#include <Eigen/Cholesky>
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+namespace nhnet {
+
+namespace {
+
+#include "learned/learned_fit_weights.inc"
+
+constexpr int kM = kFitMembers, kH = kFitHidden, kF = kFitFeatures, kG = kFitGateHidden;
+/// Points whose members go through the network together: one matrix product per layer for
+/// kBlock x kM members instead of a small one per point.
+constexpr int kBlock = 128;
+
+template <int R, int C>
+using Fixed = Eigen::Matrix<float, R, C, Eigen::RowMajor>;
+using Hidden = Eigen::Matrix<float, 1, kH>;
+
+/// The fitted layers as matrices (out x in, as torch stores them) and row vectors.
+struct Layers {
+  Eigen::Map<const Fixed<kH, kF>> w1{&kW1[0][0]};
+  Eigen::Map<const Fixed<kH, kH>> w2{&kW2[0][0]};
+  Eigen::Map<const Fixed<kH, 2 * kH>> w3{&kW3[0][0]};
+  Eigen::Map<const Fixed<kG, kH + 1>> g1{&kG1[0][0]};
+  Eigen::Map<const Hidden> b1{kB1.data()}, b2{kB2.data()}, b3{kB3.data()}, w4{kW4.data()};
+  Eigen::Map<const Eigen::Matrix<float, 1, kG>> gb1{kGB1.data()}, g2{kG2.data()};
+};
+
+/// A point's members in its normal's frame: scaled tangent coordinates and heights (u, v, h)
+/// and tangent axes, as LearnedFit.forward.
+struct Frame {
+  Eigen::Vector3d a, b;
+  Eigen::Matrix<double, kM, 1> u, v, h;
+};
+
+/// Tangent axes of unit normal n (jet.cpp's).
+void tangent_axes(const Eigen::Vector3d& n, Eigen::Vector3d& a, Eigen::Vector3d& b) {
+  a = n.cross(std::abs(n.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY())
+          .normalized();
+  b = n.cross(a);
+}
+
+/// Frame of point i and its members' features (kM rows of `features` from `row`); false when
+/// its members all sit on it (no radius).
+bool member_frame(const LearnedFitInput& in, Eigen::Index i, const Eigen::Vector3d& n, Frame& fr,
+                  Eigen::MatrixXf& features, Eigen::Index row) {
+  const Points& pts = *in.points;
+  const Eigen::Vector3d p = pts.row(i).transpose();
+  double radius = 0;
+  for (int j = 0; j < kM; ++j)
+    radius = std::max(radius, (pts.row((*in.members)(i, j)).transpose() - p).norm());
+  if (!(radius > 0)) return false;
+  tangent_axes(n, fr.a, fr.b);
+  for (int j = 0; j < kM; ++j) {
+    const Eigen::Vector3d q = (pts.row((*in.members)(i, j)).transpose() - p) / radius;
+    fr.u[j] = q.dot(fr.a);
+    fr.v[j] = q.dot(fr.b);
+    fr.h[j] = q.dot(n);
+  }
+  const double mean_h = fr.h.mean(), noise = std::log(std::max(in.noise_ratio, 1e-4));
+  for (int j = 0; j < kM; ++j) {
+    const auto nj = in.normals->row((*in.members)(i, j));
+    const double c = nj.allFinite() ? std::abs(nj.dot(n.transpose())) : 0.0;
+    const double f[kF] = {std::hypot(fr.u[j], fr.v[j]),
+                          10 * std::abs(fr.h[j] - mean_h),
+                          10 * std::abs(fr.h[j]),
+                          1 - c,
+                          c,
+                          double(j) / (kM - 1),
+                          noise};
+    for (int q = 0; q < kF; ++q) features(row + j, q) = float(f[q]);
+  }
+  return true;
+}
+
+float softplus(float x) { return x > 20 ? x : std::log1p(std::exp(x)); }
+
+/// The network on a block's member features (len x kM rows): each member's weight (`weights`,
+/// same rows) and each point's gate (`gates`, len).
+void member_weights(const Layers& l, const Eigen::MatrixXf& features, Eigen::Index len,
+                    double noise, Eigen::VectorXf& weights, Eigen::VectorXf& gates) {
+  Eigen::MatrixXf e = features * l.w1.transpose();
+  e = (e.rowwise() + l.b1).cwiseMax(0.0f);
+  Eigen::MatrixXf e2 = e * l.w2.transpose();
+  e2 = (e2.rowwise() + l.b2).cwiseMax(0.0f);
+  Eigen::MatrixXf pooled(len, kH);
+  for (Eigen::Index r = 0; r < len; ++r) pooled.row(r) = e2.middleRows(r * kM, kM).colwise().maxCoeff();
+  Eigen::MatrixXf global = pooled * l.w3.rightCols<kH>().transpose();
+  global.rowwise() += l.b3;
+  Eigen::MatrixXf z = e2 * l.w3.leftCols<kH>().transpose();
+  for (Eigen::Index r = 0; r < len; ++r) z.middleRows(r * kM, kM).rowwise() += global.row(r);
+  z = z.cwiseMax(0.0f);
+  weights = z.lazyProduct(l.w4.transpose());
+  for (Eigen::Index j = 0; j < weights.size(); ++j) weights[j] = softplus(weights[j] + kB4);
+  Eigen::MatrixXf gate_in(len, kH + 1);
+  gate_in << pooled, Eigen::VectorXf::Constant(len, float(noise));
+  Eigen::MatrixXf hidden = gate_in * l.g1.transpose();
+  hidden = (hidden.rowwise() + l.gb1).cwiseMax(0.0f);
+  gates = hidden.lazyProduct(l.g2.transpose());
+  for (Eigen::Index r = 0; r < len; ++r) gates[r] = 1 / (1 + std::exp(-(gates[r] + kGB2)));
+}
+
+/// The weighted jet's normal in frame fr (n - c1 a - c2 b), or NaN when the system is singular.
+Eigen::Vector3d weighted_jet(const Frame& fr, const float* w, const Eigen::Vector3d& n) {
+  Eigen::Matrix<double, 6, 6> ata = Eigen::Matrix<double, 6, 6>::Zero();
+  Eigen::Matrix<double, 6, 1> atb = Eigen::Matrix<double, 6, 1>::Zero();
+  double total = 0;
+  for (int j = 0; j < kM; ++j) {
+    const double u = fr.u[j], v = fr.v[j];
+    Eigen::Matrix<double, 6, 1> row;
+    row << 1, u, v, u * u, u * v, v * v;
+    ata.noalias() += double(w[j]) * row * row.transpose();
+    atb.noalias() += double(w[j]) * fr.h[j] * row;
+    total += double(w[j]);
+  }
+  if (!(total > 0)) return Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  ata.diagonal().array() += kFitRidge * total;
+  const Eigen::LDLT<Eigen::Matrix<double, 6, 6>> ldlt(ata);
+  const Eigen::Matrix<double, 6, 1> c = ldlt.solve(atb);
+  if (ldlt.info() != Eigen::Success || !c.allFinite())
+    return Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  return (n - c[1] * fr.a - c[2] * fr.b).normalized();
+}
+
+/// Refits the points [b, b + len) into `out`; a point whose fit is degenerate keeps its normal.
+void fit_block(const LearnedFitInput& in, const Layers& l, Eigen::Index b, Eigen::Index len,
+               Normals& out) {
+  std::vector<Frame> frames(static_cast<size_t>(len));
+  std::vector<uint8_t> ok(size_t(len), 0);
+  Eigen::MatrixXf features = Eigen::MatrixXf::Zero(len * kM, kF);
+  for (Eigen::Index r = 0; r < len; ++r) {
+    const Eigen::Vector3d n = in.normals->row(b + r).transpose();
+    ok[size_t(r)] = n.allFinite() && member_frame(in, b + r, n, frames[size_t(r)], features, r * kM);
+  }
+  Eigen::VectorXf weights, gates;
+  member_weights(l, features, len, std::log(std::max(in.noise_ratio, 1e-4)), weights, gates);
+  for (Eigen::Index r = 0; r < len; ++r) {
+    const Eigen::Vector3d n = in.normals->row(b + r).transpose();
+    out.row(b + r) = n.transpose();
+    if (!ok[size_t(r)]) continue;
+    const Eigen::Vector3d fitted = weighted_jet(frames[size_t(r)], &weights[r * kM], n);
+    if (!fitted.allFinite()) continue;
+    const Eigen::Vector3d mixed = n + double(gates[r]) * (fitted - n);
+    if (mixed.norm() > 1e-12) out.row(b + r) = mixed.normalized().transpose();
+  }
+}
+
+}  // namespace
+
+Normals learned_fit(const LearnedFitInput& in, const RunContext& run) {
+  if (!in.points || !in.normals || !in.members)
+    throw InvalidOptions("learned fit: an input is missing");
+  const Eigen::Index m = in.normals->rows();
+  if (in.points->rows() != m || in.members->rows() != m || in.members->cols() != kFitMembers)
+    throw InvalidOptions("learned fit: inputs differ in size or the member table does not have " +
+                         std::to_string(kFitMembers) + " columns");
+  const Layers layers;
+  Normals out(m, 3);
+  detail::Progress progress(run.progress);
+  if (run.progress) progress.stage("learned fit", 0, 1);
+  const int64_t blocks = (m + kBlock - 1) / kBlock;
+  detail::parallel_for(blocks, run.threads, run.progress ? &progress : nullptr, [&](int64_t c) {
+    fit_block(in, layers, c * kBlock, std::min<Eigen::Index>(kBlock, m - c * kBlock), out);
+  });
+  return out;
+}
+
+}  // namespace nhnet
