@@ -430,6 +430,12 @@ constexpr std::array<std::array<double, kMixHidden>, kMixCandidates> kW3 = {{{{
 constexpr std::array<double, kMixCandidates> kB3 = {fmt(p['l3.bias'])};
 // clang-format on
 """
+    write_atomic(path, text)
+
+
+def write_atomic(path: Path, text: str) -> None:
+    """Writes text to path through a temporary file and a rename (a weights file is never half
+    written)."""
     tmp = path.with_suffix(".tmp")
     tmp.write_text(text)
     tmp.replace(path)

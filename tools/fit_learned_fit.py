@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from fit_candidate_mix import load_cloud, pick_clouds, unit  # noqa: E402
+from fit_candidate_mix import load_cloud, pick_clouds, unit, write_atomic  # noqa: E402
 
 MEMBERS, FEATURES, GATE_HIDDEN, CUT = 64, 7, 16, 20000
 
@@ -224,10 +224,7 @@ constexpr std::array<float, {GATE_HIDDEN}> kG2 = {fmt(p["g2.weight"])};
 constexpr float kGB2 = {float(p["g2.bias"][0]):.9g}f;
 // clang-format on
 """
-    tmp = path.with_suffix(".tmp")
-    tmp.write_text(text)
-    tmp.replace(path)
-    print(f"wrote {path}")
+    write_atomic(path, text)
 
 
 def read_inc(path: Path, torch):

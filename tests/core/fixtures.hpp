@@ -28,6 +28,16 @@ inline nhnet::IndexMatrix knn_table(const nhnet::Points& points, int k) {
   return knn;
 }
 
+/// `points` with Gaussian noise of `sigma` (absolute units) on every coordinate.
+inline nhnet::Points with_noise(const nhnet::Points& points, double sigma, unsigned seed) {
+  nhnet::Points noisy = points;
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> g(0.0, sigma);
+  for (Eigen::Index i = 0; i < noisy.rows(); ++i)
+    noisy.row(i) += Eigen::RowVector3d(g(rng), g(rng), g(rng));
+  return noisy;
+}
+
 /// Uniform samples of the unit square in the plane z = 0, normal +z.
 inline Fixture plane(int n, unsigned seed) {
   std::mt19937 rng(seed);

@@ -79,6 +79,7 @@ MixData make_data(int n, double spread, unsigned seed) {
 }
 
 using fixtures::line_angle;
+using fixtures::with_noise;
 
 }  // namespace
 
@@ -163,15 +164,6 @@ ThreeRms three_rms(const Points& pts, const Normals& truth) {
   return r;
 }
 
-/// A fixture's points with Gaussian noise of `sigma` on every coordinate.
-Points with_noise(const Points& pts, double sigma, unsigned seed) {
-  Points noisy = pts;
-  std::mt19937 rng(seed);
-  std::normal_distribution<double> g(0.0, sigma);
-  for (Eigen::Index i = 0; i < noisy.rows(); ++i)
-    noisy.row(i) += Eigen::RowVector3d(g(rng), g(rng), g(rng));
-  return noisy;
-}
 
 TEST(CandidateMix, LowersNhNetRmsOnANoisyCube) {
   if (!nhnet_available()) GTEST_FAIL() << "this build has no libtorch: the default method needs it";

@@ -20,6 +20,7 @@
 
 using namespace nhnet;
 using fixtures::line_angle;
+using fixtures::with_noise;
 
 namespace {
 
@@ -122,14 +123,6 @@ double default_rms(const Points& pts, const Normals& truth, bool fit) {
   return rms;
 }
 
-Points with_noise(const Points& pts, double sigma, unsigned seed) {
-  Points noisy = pts;
-  std::mt19937 rng(seed);
-  std::normal_distribution<double> g(0.0, sigma);
-  for (Eigen::Index i = 0; i < noisy.rows(); ++i)
-    noisy.row(i) += Eigen::RowVector3d(g(rng), g(rng), g(rng));
-  return noisy;
-}
 
 }  // namespace
 

@@ -1,7 +1,6 @@
 """tools/fit_learned_fit.py (issue 23): the C++ learned fit (core/src/learned/learned_fit.cpp) is
 the tool's LearnedFit.forward with the shipped weights, so a fit chosen on the tool's report is
 what users get; the weights file it writes reads back to the same network."""
-import json
 import sys
 import types
 from pathlib import Path
@@ -14,21 +13,9 @@ import nhnet
 REPO = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(REPO / "tools"))
 import fit_learned_fit as lf  # noqa: E402
+from test_fit_candidate_mix import one_cloud_benchmark  # noqa: E402  (2 500 sample points)
 
 SHIPPED = REPO / "core" / "src" / "learned" / "learned_fit_weights.inc"
-
-
-def one_cloud_benchmark(root):
-    """root/benchmark with one cloud (3 000 points of the bundled noisy sample); its index entry."""
-    base = root / "benchmark"
-    base.mkdir()
-    sample = REPO / "data" / "sample"
-    np.savetxt(base / "f.xyz", np.loadtxt(sample / "fandisk_noise0.6.xyz")[:3000])
-    np.savetxt(base / "f.normals", np.loadtxt(sample / "fandisk_noise0.6.gt.xyzn")[:3000, 3:6])
-    cloud = {"name": "f", "category": "BigNoise", "noise_percent": 0.6, "variant": "uniform",
-             "model": "fandisk", "files": ["f.xyz", "f.normals"]}
-    (base / "index.json").write_text(json.dumps({"clouds": [cloud]}))
-    return cloud
 
 
 def deg(a, b):
