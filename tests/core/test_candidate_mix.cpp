@@ -164,7 +164,6 @@ ThreeRms three_rms(const Points& pts, const Normals& truth) {
   return r;
 }
 
-
 TEST(CandidateMix, LowersNhNetRmsOnANoisyCube) {
   if (!nhnet_available()) GTEST_FAIL() << "this build has no libtorch: the default method needs it";
   const fixtures::Fixture f = fixtures::cube(6000, 0.02, 5);  // 0.6 % of the diagonal (2 sqrt 3)

@@ -123,7 +123,6 @@ double default_rms(const Points& pts, const Normals& truth, bool fit) {
   return rms;
 }
 
-
 }  // namespace
 
 /// Mean angle error (degrees) of `normals` against `truth`.
@@ -187,7 +186,9 @@ TEST(LearnedFit, ReportsProgressAndCanBeCancelled) {
   o.method = Method::NhNet;
   o.model.device = "cpu";
   int calls = 0;
-  o.run.progress = [&](double, const std::string& stage) { return !(calls += stage == "learned fit"); };
+  o.run.progress = [&](double, const std::string& stage) {
+    return !(calls += stage == "learned fit");
+  };
   EXPECT_THROW(estimate_normals(noisy, o), Cancelled);
   EXPECT_EQ(calls, 1);
 }

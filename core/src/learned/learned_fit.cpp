@@ -1,7 +1,8 @@
 // Learned weighted jet fit of --method nhnet (learned/learned_fit.hpp; not the paper's): per
 // point, member features in the frame of the mixed normal, a two-layer ReLU embedding per member,
 // its max-pool, softplus weights per member and a sigmoid gate (blocks of points through one
-// matrix product per layer), then a weighted degree-2 height fit. The weights are in learned_fit_weights.inc, written by tools/fit_learned_fit.py
+// matrix product per layer), then a weighted degree-2 height fit. The weights are in
+// learned_fit_weights.inc, written by tools/fit_learned_fit.py
 // (docs/design/decisions.md#learned-weighted-jet-fit); the arithmetic here is that tool's
 // LearnedFit.forward, step for step.
 #include "nhnet/learned/learned_fit.hpp"
@@ -100,7 +101,8 @@ void member_weights(const Layers& l, const Eigen::MatrixXf& features, Eigen::Ind
   Eigen::MatrixXf e2 = e * l.w2.transpose();
   e2 = (e2.rowwise() + l.b2).cwiseMax(0.0f);
   Eigen::MatrixXf pooled(len, kH);
-  for (Eigen::Index r = 0; r < len; ++r) pooled.row(r) = e2.middleRows(r * kM, kM).colwise().maxCoeff();
+  for (Eigen::Index r = 0; r < len; ++r)
+    pooled.row(r) = e2.middleRows(r * kM, kM).colwise().maxCoeff();
   Eigen::MatrixXf global = pooled * l.w3.rightCols<kH>().transpose();
   global.rowwise() += l.b3;
   Eigen::MatrixXf z = e2 * l.w3.leftCols<kH>().transpose();
@@ -146,7 +148,8 @@ void fit_block(const LearnedFitInput& in, const Layers& l, Eigen::Index b, Eigen
   Eigen::MatrixXf features = Eigen::MatrixXf::Zero(len * kM, kF);
   for (Eigen::Index r = 0; r < len; ++r) {
     const Eigen::Vector3d n = in.normals->row(b + r).transpose();
-    ok[size_t(r)] = n.allFinite() && member_frame(in, b + r, n, frames[size_t(r)], features, r * kM);
+    ok[size_t(r)] =
+        n.allFinite() && member_frame(in, b + r, n, frames[size_t(r)], features, r * kM);
   }
   Eigen::VectorXf weights, gates;
   member_weights(l, features, len, std::log(std::max(in.noise_ratio, 1e-4)), weights, gates);
