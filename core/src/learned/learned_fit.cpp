@@ -3,7 +3,7 @@
 // its max-pool, softplus weights per member and a sigmoid gate (blocks of points through one
 // matrix product per layer), then a weighted degree-2 height fit. The weights are in
 // learned_fit_weights.inc, written by tools/fit_learned_fit.py
-// (docs/design/decisions.md#learned-weighted-jet-fit); the arithmetic here is that tool's
+// (docs/design/decisions.md#learned-weighted-jet-fit-issue-23); the arithmetic here is that tool's
 // LearnedFit.forward, step for step.
 #include "nhnet/learned/learned_fit.hpp"
 

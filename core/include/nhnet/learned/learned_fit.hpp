@@ -1,7 +1,7 @@
 // Learned weighted jet fit (not the paper's; the DeepFit/AdaFit family, issue 23 point 2,
-// docs/design/decisions.md#learned-weighted-jet-fit): the last step of --method nhnet, after the
-// candidate mix. Each point's neighbourhood (kFitMembers members spread over its max(k, 64)
-// nearest, util/spread.hpp) is seen in the frame of its mixed normal n; a small network weighs
+// docs/design/decisions.md#learned-weighted-jet-fit-issue-23): the last step of --method nhnet,
+// after the candidate mix. Each point's neighbourhood (kFitMembers members spread over its max(k,
+// 64) nearest, util/spread.hpp) is seen in the frame of its mixed normal n; a small network weighs
 // every member from rotation-invariant features (tangent distance, height, residual from the
 // mean height, agreement of the member's normal with n, distance rank, the cloud's noise level)
 // and from their max-pool over the neighbourhood, and a degree-2 height fit with those weights
