@@ -2,6 +2,7 @@
 // coordinates, so the 6 x 6 normal equations are well conditioned at any point spacing.
 #include "nhnet/geometry/jet.hpp"
 
+#include "geometry/tangent_frame.hpp"
 #include "nhnet/errors.hpp"
 #include "util/parallel.hpp"
 
@@ -20,10 +21,8 @@ Eigen::Vector3d jet_row(const Points& points, const int32_t* idx, int k, const E
                         Eigen::Index i) {
   const Eigen::Vector3d nan = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
   if (!n.allFinite()) return nan;
-  const Eigen::Vector3d a =
-      n.cross(std::abs(n.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY())
-          .normalized();
-  const Eigen::Vector3d b = n.cross(a);
+  Eigen::Vector3d a, b;
+  detail::tangent_axes(n, a, b);
   const Eigen::Vector3d p = points.row(i).transpose();
   double s2 = 0;
   for (int j = 0; j < k; ++j) {

@@ -7,8 +7,10 @@
 // LearnedFit.forward, step for step.
 #include "nhnet/learned/learned_fit.hpp"
 
+#include "geometry/tangent_frame.hpp"
 #include "nhnet/errors.hpp"
 #include "util/parallel.hpp"
+#include "util/spatial_order.hpp"
 
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
@@ -23,7 +25,11 @@ namespace nhnet {
 
 namespace {
 
+#ifdef NHNET_LEARNED_FIT_WEIGHTS  // core/CMakeLists.txt's NHNET_LEARNED_FIT_WEIGHTS
+#include NHNET_LEARNED_FIT_WEIGHTS
+#else
 #include "learned/learned_fit_weights.inc"
+#endif
 
 constexpr int kM = kFitMembers, kH = kFitHidden, kF = kFitFeatures, kG = kFitGateHidden;
 /// Points whose members go through the network together: one matrix product per layer for
@@ -51,42 +57,38 @@ struct Frame {
   Eigen::Matrix<double, kM, 1> u, v, h;
 };
 
-/// Tangent axes of unit normal n (jet.cpp's).
-void tangent_axes(const Eigen::Vector3d& n, Eigen::Vector3d& a, Eigen::Vector3d& b) {
-  a = n.cross(std::abs(n.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY())
-          .normalized();
-  b = n.cross(a);
-}
-
 /// Frame of point i and its members' features (kM rows of `features` from `row`); false when
-/// its members all sit on it (no radius).
-bool member_frame(const LearnedFitInput& in, Eigen::Index i, const Eigen::Vector3d& n, Frame& fr,
-                  Eigen::MatrixXf& features, Eigen::Index row) {
+/// its members all sit on it (no radius). `noise`: log of the cloud's noise ratio.
+bool member_frame(const LearnedFitInput& in, Eigen::Index i, const Eigen::Vector3d& n, float noise,
+                  Frame& fr, Eigen::MatrixXf& features, Eigen::Index row) {
   const Points& pts = *in.points;
   const Eigen::Vector3d p = pts.row(i).transpose();
+  std::array<Eigen::Vector3d, kM> q;
   double radius = 0;
-  for (int j = 0; j < kM; ++j)
-    radius = std::max(radius, (pts.row((*in.members)(i, j)).transpose() - p).norm());
-  if (!(radius > 0)) return false;
-  tangent_axes(n, fr.a, fr.b);
   for (int j = 0; j < kM; ++j) {
-    const Eigen::Vector3d q = (pts.row((*in.members)(i, j)).transpose() - p) / radius;
-    fr.u[j] = q.dot(fr.a);
-    fr.v[j] = q.dot(fr.b);
-    fr.h[j] = q.dot(n);
+    q[size_t(j)] = pts.row((*in.members)(i, j)).transpose() - p;
+    radius = std::max(radius, q[size_t(j)].norm());
   }
-  const double mean_h = fr.h.mean(), noise = std::log(std::max(in.noise_ratio, 1e-4));
+  if (!(radius > 0)) return false;
+  detail::tangent_axes(n, fr.a, fr.b);
+  for (int j = 0; j < kM; ++j) {
+    const Eigen::Vector3d qj = q[size_t(j)] / radius;
+    fr.u[j] = qj.dot(fr.a);
+    fr.v[j] = qj.dot(fr.b);
+    fr.h[j] = qj.dot(n);
+  }
+  const double mean_h = fr.h.mean();
   for (int j = 0; j < kM; ++j) {
     const auto nj = in.normals->row((*in.members)(i, j));
     const double c = nj.allFinite() ? std::abs(nj.dot(n.transpose())) : 0.0;
-    const double f[kF] = {std::hypot(fr.u[j], fr.v[j]),
-                          10 * std::abs(fr.h[j] - mean_h),
-                          10 * std::abs(fr.h[j]),
-                          1 - c,
-                          c,
-                          double(j) / (kM - 1),
-                          noise};
-    for (int q = 0; q < kF; ++q) features(row + j, q) = float(f[q]);
+    const double f[kF - 1] = {std::hypot(fr.u[j], fr.v[j]),
+                              10 * std::abs(fr.h[j] - mean_h),
+                              10 * std::abs(fr.h[j]),
+                              1 - c,
+                              c,
+                              double(j) / (kM - 1)};
+    for (int k = 0; k < kF - 1; ++k) features(row + j, k) = float(f[k]);
+    features(row + j, kF - 1) = noise;
   }
   return true;
 }
@@ -95,8 +97,8 @@ float softplus(float x) { return x > 20 ? x : std::log1p(std::exp(x)); }
 
 /// The network on a block's member features (len x kM rows): each member's weight (`weights`,
 /// same rows) and each point's gate (`gates`, len).
-void member_weights(const Layers& l, const Eigen::MatrixXf& features, Eigen::Index len,
-                    double noise, Eigen::VectorXf& weights, Eigen::VectorXf& gates) {
+void member_weights(const Layers& l, const Eigen::MatrixXf& features, Eigen::Index len, float noise,
+                    Eigen::VectorXf& weights, Eigen::VectorXf& gates) {
   Eigen::MatrixXf e = features * l.w1.transpose();
   e = (e.rowwise() + l.b1).cwiseMax(0.0f);
   Eigen::MatrixXf e2 = e * l.w2.transpose();
@@ -112,7 +114,7 @@ void member_weights(const Layers& l, const Eigen::MatrixXf& features, Eigen::Ind
   weights = z.lazyProduct(l.w4.transpose());
   for (Eigen::Index j = 0; j < weights.size(); ++j) weights[j] = softplus(weights[j] + kB4);
   Eigen::MatrixXf gate_in(len, kH + 1);
-  gate_in << pooled, Eigen::VectorXf::Constant(len, float(noise));
+  gate_in << pooled, Eigen::VectorXf::Constant(len, noise);
   Eigen::MatrixXf hidden = gate_in * l.g1.transpose();
   hidden = (hidden.rowwise() + l.gb1).cwiseMax(0.0f);
   gates = hidden.lazyProduct(l.g2.transpose());
@@ -141,27 +143,27 @@ Eigen::Vector3d weighted_jet(const Frame& fr, const float* w, const Eigen::Vecto
   return (n - c[1] * fr.a - c[2] * fr.b).normalized();
 }
 
-/// Refits the points [b, b + len) into `out`; a point whose fit is degenerate keeps its normal.
-void fit_block(const LearnedFitInput& in, const Layers& l, Eigen::Index b, Eigen::Index len,
-               Normals& out) {
+/// Refits the points rows[0, len) into `out`; a point whose fit is degenerate keeps its normal.
+void fit_block(const LearnedFitInput& in, const Layers& l, const int64_t* rows, Eigen::Index len,
+               float noise, Normals& out) {
   std::vector<Frame> frames(static_cast<size_t>(len));
   std::vector<uint8_t> ok(size_t(len), 0);
   Eigen::MatrixXf features = Eigen::MatrixXf::Zero(len * kM, kF);
   for (Eigen::Index r = 0; r < len; ++r) {
-    const Eigen::Vector3d n = in.normals->row(b + r).transpose();
+    const Eigen::Vector3d n = in.normals->row(rows[r]).transpose();
     ok[size_t(r)] =
-        n.allFinite() && member_frame(in, b + r, n, frames[size_t(r)], features, r * kM);
+        n.allFinite() && member_frame(in, rows[r], n, noise, frames[size_t(r)], features, r * kM);
   }
   Eigen::VectorXf weights, gates;
-  member_weights(l, features, len, std::log(std::max(in.noise_ratio, 1e-4)), weights, gates);
+  member_weights(l, features, len, noise, weights, gates);
   for (Eigen::Index r = 0; r < len; ++r) {
-    const Eigen::Vector3d n = in.normals->row(b + r).transpose();
-    out.row(b + r) = n.transpose();
+    const Eigen::Vector3d n = in.normals->row(rows[r]).transpose();
+    out.row(rows[r]) = n.transpose();
     if (!ok[size_t(r)]) continue;
     const Eigen::Vector3d fitted = weighted_jet(frames[size_t(r)], &weights[r * kM], n);
     if (!fitted.allFinite()) continue;
     const Eigen::Vector3d mixed = n + double(gates[r]) * (fitted - n);
-    if (mixed.norm() > 1e-12) out.row(b + r) = mixed.normalized().transpose();
+    if (mixed.norm() > 1e-12) out.row(rows[r]) = mixed.normalized().transpose();
   }
 }
 
@@ -178,9 +180,13 @@ Normals learned_fit(const LearnedFitInput& in, const RunContext& run) {
   Normals out(m, 3);
   detail::Progress progress(run.progress);
   if (run.progress) progress.stage("learned fit", 0, 1);
+  // Blocks of points near each other (util/spatial_order.hpp): their members share cache lines.
+  const std::vector<int64_t> order = detail::spatial_order(*in.points);
+  const float noise = float(std::log(std::max(in.noise_ratio, 1e-4)));
   const int64_t blocks = (m + kBlock - 1) / kBlock;
   detail::parallel_for(blocks, run.threads, run.progress ? &progress : nullptr, [&](int64_t c) {
-    fit_block(in, layers, c * kBlock, std::min<Eigen::Index>(kBlock, m - c * kBlock), out);
+    const Eigen::Index len = std::min<Eigen::Index>(kBlock, m - c * kBlock);
+    fit_block(in, layers, order.data() + c * kBlock, len, noise, out);
   });
   return out;
 }
