@@ -72,9 +72,11 @@ struct Output {
 
 using Runner = std::function<Output(const nhnet::Points&, const Args&)>;
 
-Output run_nhnet(const nhnet::Points& p, const Args& a, nhnet::Method m, bool auto_k) {
+Output run_nhnet(const nhnet::Points& p, const Args& a, nhnet::Method m, bool auto_k,
+                 bool learned_fit = true) {
   nhnet::EstimateOptions o;
   o.method = m;
+  o.model.learned_fit = learned_fit;
   o.k = auto_k ? 0 : a.k;
   o.mfps.scales = auto_k ? std::vector<int>{} : a.scales;
   o.run.threads = a.threads;
@@ -95,6 +97,9 @@ const std::map<std::string, Runner>& methods() {
       {"mfps-auto", [](auto& p, auto& a) { return run_nhnet(p, a, nhnet::Method::Mfps, true); }},
       // NH-Net with the default model (models/nhnet.pt, or $NHNET_MODEL).
       {"nhnet", [](auto& p, auto& a) { return run_nhnet(p, a, nhnet::Method::NhNet, true); }},
+      // The same without its last step, the learned fit (--learned-fit off): bench/front.py.
+      {"nhnet-mix",
+       [](auto& p, auto& a) { return run_nhnet(p, a, nhnet::Method::NhNet, true, false); }},
       {"pcl-pca",
        [](auto& p, auto& a) {
          return Output{nhnet_bench::pcl_pca_normals(p, a.k, a.threads), a.k, {}};

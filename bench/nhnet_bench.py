@@ -45,6 +45,7 @@ METHODS: dict[str, tuple[str, bool, str]] = {
     "mfps-auto": ("nhnet mfps (auto scales)", False, "worker"),
     "mfps": ("nhnet mfps (paper scales)", True, "worker"),
     "nhnet": ("nhnet NH-Net (shipped model)", False, "worker"),
+    "nhnet-mix": ("nhnet NH-Net without the learned fit", False, "worker"),
     "pca-auto": ("nhnet pca (auto k)", False, "worker"),
     "pca": ("nhnet pca", True, "worker"),
     "pcl-pca": ("PCL NormalEstimationOMP", True, "worker"),
@@ -573,7 +574,7 @@ def main(argv: list[str] | None = None) -> int:
     method_notes = {}
     py = None
     model_info = ""
-    if "nhnet" in methods:
+    if any(m.startswith("nhnet") for m in methods):
         model = Path(a.model)
         if not model.is_file():
             print(f"nhnet_bench: {model}: model file not found (--model)", file=sys.stderr)

@@ -18,6 +18,7 @@ nhnet_bench = importlib.util.module_from_spec(spec)
 spec.loader.exec_module(nhnet_bench)
 
 SIZES = [2000, 6000]
+WHOLE = ("mfps-stream", "mfps-whole", "nhnet-whole")  # timed as whole nhnet-cli processes
 
 
 @pytest.fixture(scope="module")
@@ -36,7 +37,7 @@ def test_every_method_at_every_size(scaling):
     recs = results["records"]
     assert not [r for r in recs if "error" in r], recs
     for n in SIZES:
-        for m in ("pcl-pca", "pca-auto", "mfps-auto", "mfps-stream"):
+        for m in ("pcl-pca", "pca-auto", "mfps-auto", "mfps-stream", "mfps-whole", "nhnet-whole"):
             assert [r for r in recs if r["n"] == n and r["method"] == m], (n, m)
     # nhnet only up to --nhnet-max-points, and the table says what was not run
     assert {r["n"] for r in recs if r["method"] == "nhnet"} == {SIZES[0]}
@@ -54,8 +55,9 @@ def test_per_point_numbers_are_sane(scaling):
         assert r["time_s"] > 0 and r["us_per_point"] == pytest.approx(1e6 * r["time_s"] / r["n"])
         # a process holds at least its cloud (3 doubles + 3 normals per point) at its peak
         assert r["peak_bytes_per_point"] > 48, r
-        if r["method"] == "mfps-stream":  # a whole nhnet-cli process: nothing before it
-            assert r["rss_before_mb"] == 0 and r["tiles"] >= 1, r
+        if r["method"] in WHOLE:  # a whole nhnet-cli process: nothing before it
+            assert r["rss_before_mb"] == 0, r
+            assert r["method"] != "mfps-stream" or r["tiles"] >= 1, r
         else:
             assert r["peak_mb"] >= r["rss_before_mb"] > 0, r
         if r["method"] != "pcl-pca":
@@ -75,10 +77,28 @@ def test_streamed_mfps_scores_like_the_in_memory_one(scaling):
         assert st["mean_deg"] == pytest.approx(mem["mean_deg"], abs=0.05), (mem, st)
 
 
+def test_whole_commands_score_like_the_estimator_and_compare_with_pcls_process(scaling):
+    # `mfps-whole` runs nhnet-cli on the cloud's bare coordinates (the same text tokens) with the
+    # MST orientation: unoriented errors equal the estimator call's up to the last printed digit
+    # of the written normals (0.01 deg is far above that and far below any change of method).
+    recs = scaling[1]["records"]
+    for n in SIZES:
+        (mem,) = [r for r in recs if r["n"] == n and r["method"] == "mfps-auto"]
+        (whole,) = [r for r in recs if r["n"] == n and r["method"] == "mfps-whole"]
+        assert whole["scales_used"] == mem["scales_used"], (mem, whole)
+        assert whole["mean_deg"] == pytest.approx(mem["mean_deg"], abs=0.01), (mem, whole)
+        runs = [r for r in recs if r["n"] == n]
+        i = runs.index(whole)
+        pcl = [runs[i - 1]["child_wall_s"], runs[i + 1]["child_wall_s"]]
+        assert whole["ratio_to_pcl"] == pytest.approx(whole["time_s"] / (sum(pcl) / 2)), whole
+        assert whole["time_s"] == whole["child_wall_s"], whole
+    assert [r for r in recs if r["method"] == "nhnet-whole" and r["n"] == SIZES[1]]
+
+
 def test_stages_are_timed(scaling):
     _, results = scaling
     for r in results["records"]:
-        if r["method"] in ("pcl-pca", "mfps-stream"):
+        if r["method"] in ("pcl-pca",) + WHOLE:
             continue
         st = r["stages"]
         # the stages cover the timed call (gaps count towards the stage before them)
