@@ -9,10 +9,11 @@ Sizes, smallest first: `mfps` (`--method mfps`, no network), `mix` (NH-Net and t
 mix: `--learned-fit off`), `h16` (the shipped learned fit) and `NAME=FILE`, the same fit with the
 weights of FILE (`tools/fit_learned_fit.py fit ... --hidden H --write FILE`). For each size this
 builds nhnet-cli and nhnet-bench-worker with its weights (CMake NHNET_LEARNED_FIT_WEIGHTS: only
-learned_fit.cpp recompiles), times the whole `nhnet-cli estimate CLOUD.xyz OUT.xyzn --threads 2`
-process (read, estimate, MST orientation, write) on each --clouds cloud between two PCL
-`NormalEstimationOMP` (k=50) processes (tools/ab_timing.py's way), then runs bench/nhnet_bench.py
-on the whole test split. The shipped weights are built back at the end, also after a failure.
+learned_fit.cpp recompiles) and keeps copies of them; the shipped weights are then built back
+(also after a failure). Then, size after size, it times the whole `nhnet-cli estimate CLOUD.xyz
+OUT.xyzn --threads 2` process (read, estimate, MST orientation, write) on each --clouds cloud
+between two PCL `NormalEstimationOMP` (k=50) processes (tools/ab_timing.py's way), and last runs
+bench/nhnet_bench.py on the whole test split with each size's programs.
 
 Writes OUT/table.md and OUT/results.json: per category and size the mean over clouds of RMS and
 mean error, the RMS against the reference run's pca-auto and PCL best K (the same clouds), and
@@ -24,6 +25,7 @@ from __future__ import annotations
 import argparse
 import datetime as dt
 import json
+import shutil
 import statistics
 import subprocess
 import sys
@@ -61,6 +63,15 @@ def build(build_dir: Path, weights: str) -> None:
         subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
 
 
+def programs(build_dir: Path, into: Path) -> Path:
+    """Copies of the two programs just built (they link the core statically), laid out as a
+    build directory, so every size keeps its own while the build directory moves on."""
+    for sub, exe in (("cli", "nhnet-cli"), ("bench", "nhnet-bench-worker")):
+        (into / sub).mkdir(parents=True, exist_ok=True)
+        shutil.copy2(build_dir / sub / exe, into / sub / exe)
+    return into
+
+
 def cli_args(name: str) -> list[str]:
     return {"mfps": ["--method", "mfps"], "mix": ["--learned-fit", "off"]}.get(name, [])
 
@@ -87,11 +98,12 @@ def time_size(build_dir: Path, name: str, clouds: list[Path], tmp: Path, threads
     return out
 
 
-def accuracy(build_dir: Path, name: str, work: Path, threads: int) -> dict:
+def accuracy(build_dir: Path, name: str, work: Path, threads: int,
+             categories: list[str]) -> dict:
     """Per category: mean over the test split's clouds of RMS and mean error (bench/nhnet_bench.py)."""
     method, out = bench_method(name), work / f"bench-{name}"
     subprocess.run([sys.executable, str(REPO / "bench" / "nhnet_bench.py"), "--categories",
-                    ",".join(CATEGORIES), "--methods", method, "--threads", str(threads),
+                    ",".join(categories), "--methods", method, "--threads", str(threads),
                     "--build", str(build_dir), "--out", str(out)], check=True,
                    stdout=subprocess.DEVNULL)
     return per_category([json.loads(line) for line in (out / "records.jsonl").open()], method)
@@ -121,6 +133,7 @@ def references(path: Path) -> dict:
 
 def report(res: dict) -> str:
     sizes, refs = res["sizes"], res["references"]
+    cats = [c for c in CATEGORIES if all(c in s.get("accuracy", {}) for s in sizes.values())]
     md = ["# Front: accuracy against whole-process time of the learned stage's sizes", "",
           f"- date: {res['date']}; commit {res['commit']}; threads 2",
           f"- command: `{res['command']}`",
@@ -129,30 +142,30 @@ def report(res: dict) -> str:
           "- time: the whole `nhnet-cli estimate` process (read, estimate, MST orientation, "
           "write) / PCL NormalEstimationOMP (k=50) as a process, the mean of the runs just "
           "before and after", "",
-          "| size | " + " | ".join(f"{c} RMS / mean" for c in CATEGORIES) + " | all RMS / mean | "
+          "| size | " + " | ".join(f"{c} RMS / mean" for c in cats) + " | all RMS / mean | "
           + " | ".join(f"× PCL {c}" for c in res["clouds"]) + " |",
-          "|---|" + "---|" * (len(CATEGORIES) + 1 + len(res["clouds"]))]
+          "|---|" + "---|" * (len(cats) + 1 + len(res["clouds"]))]
     for name, s in sizes.items():
         acc = s["accuracy"]
-        cells = [f"{acc[c]['rms']:.2f} / {acc[c]['mean']:.2f}" for c in CATEGORIES]
-        allr = statistics.mean(acc[c]["rms"] for c in CATEGORIES)
-        allm = statistics.mean(acc[c]["mean"] for c in CATEGORIES)
+        cells = [f"{acc[c]['rms']:.2f} / {acc[c]['mean']:.2f}" for c in cats]
+        allr = statistics.mean(acc[c]["rms"] for c in cats)
+        allm = statistics.mean(acc[c]["mean"] for c in cats)
         times = [f"{s['time'][c]['ratio']:.2f} ({s['time'][c]['seconds']:.0f} s)"
                  for c in res["clouds"]]
         md.append(f"| {name} | " + " | ".join(cells) + f" | {allr:.2f} / {allm:.2f} | "
                   + " | ".join(times) + " |")
     md += ["", "RMS against the references (negative = below; the issue's bars: ≤ −10 % against "
            "pca-auto, ≤ −20 % against PCL's best K, every category):", "",
-           "| size | " + " | ".join(f"{c} vs pca-auto / PCL best K" for c in CATEGORIES) + " |",
-           "|---|" + "---|" * len(CATEGORIES)]
+           "| size | " + " | ".join(f"{c} vs pca-auto / PCL best K" for c in cats) + " |",
+           "|---|" + "---|" * len(cats)]
     for name, s in sizes.items():
         acc = s["accuracy"]
         md.append(f"| {name} | " + " | ".join(
             f"{100 * (acc[c]['rms'] / refs[c]['pca_auto'] - 1):+.1f} % / "
-            f"{100 * (acc[c]['rms'] / refs[c]['pcl_best'] - 1):+.1f} %" for c in CATEGORIES) + " |")
+            f"{100 * (acc[c]['rms'] / refs[c]['pcl_best'] - 1):+.1f} %" for c in cats) + " |")
     md += ["", "References: " + "; ".join(
         f"{c} pca-auto {refs[c]['pca_auto']:.2f}, PCL k={refs[c]['pcl_best_k']} "
-        f"{refs[c]['pcl_best']:.2f}" for c in CATEGORIES), ""]
+        f"{refs[c]['pcl_best']:.2f}" for c in cats), ""]
     return "\n".join(md)
 
 
@@ -163,6 +176,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--reference", default=str(REPO / "docs" / "benchmark" / "nhnet-v7" / "records.jsonl"))
     ap.add_argument("--build", default=str(REPO / "build"))
     ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--categories", default=",".join(CATEGORIES),
+                    help="test split categories (default all; fewer for a quick look)")
     ap.add_argument("--out", default=str(REPO / "build" / "front"))
     a = ap.parse_args(argv)
     sizes, clouds = parse_sizes(a.sizes), [Path(c) for c in a.clouds.split(",")]
@@ -177,17 +192,23 @@ def main(argv: list[str] | None = None) -> int:
            "commit": commit, "command": "bench/front.py " + " ".join(argv or sys.argv[1:]),
            "reference": Path(a.reference).name, "clouds": [c.name for c in clouds],
            "references": references(Path(a.reference)), "sizes": {}}
-    try:
-        with tempfile.TemporaryDirectory() as tmp:
+    with tempfile.TemporaryDirectory() as tmp:
+        bins = {}
+        try:
             for name, weights in sizes:
                 build(build_dir, weights)
-                t = time_size(build_dir, name, clouds, Path(tmp), a.threads)
-                res["sizes"][name] = {"weights": Path(weights).name if weights else "",
-                                      "time": t, "accuracy": accuracy(build_dir, name, Path(tmp),
-                                                                      a.threads)}
-                (out / "results.json").write_text(json.dumps(res, indent=1) + "\n")
-    finally:
-        build(build_dir, "")
+                bins[name] = programs(build_dir, Path(tmp) / f"bin-{name}")
+        finally:
+            build(build_dir, "")
+        # Timing first, all sizes one after the other (the machine must be idle), then accuracy.
+        for name, weights in sizes:
+            res["sizes"][name] = {"weights": Path(weights).name if weights else "",
+                                  "time": time_size(bins[name], name, clouds, Path(tmp), a.threads)}
+        print("front: timing done; accuracy on the test split follows", flush=True)
+        for name, _ in sizes:
+            res["sizes"][name]["accuracy"] = accuracy(bins[name], name, Path(tmp), a.threads,
+                                                      a.categories.split(","))
+            (out / "results.json").write_text(json.dumps(res, indent=1) + "\n")
     (out / "table.md").write_text(report(res))
     print(report(res))
     return 0

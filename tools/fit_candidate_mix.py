@@ -193,10 +193,13 @@ def geometric_candidates(xyz, rows, pca, k: int) -> dict:
                 radk=radk, radh=radh, offk=offk, offh=offh, elk=elk, elh=elh)
 
 
-def load_cloud(data_dir: Path, split: str, c: dict):
+def load_cloud(data_dir: Path, split: str, c: dict, cut: bool = False):
+    """A cloud, its true normals and 4000 sampled rows. Training clouds are cut to 20 000 points
+    (fixed seed); `cut` cuts the other splits too (the benchmark's density, the learned fit's
+    data) - the mix's own test data stays whole."""
     xyz = np.loadtxt(data_dir / split / c["files"][0], ndmin=2)
     gt = np.loadtxt(data_dir / split / c["files"][1], ndmin=2)
-    if split == "train" and len(xyz) > 20000:
+    if (split == "train" or cut) and len(xyz) > 20000:
         keep = np.sort(np.random.default_rng(11).choice(len(xyz), 20000, replace=False))
         xyz, gt = xyz[keep], gt[keep]
     rows = np.sort(np.random.default_rng(7).choice(len(xyz), min(4000, len(xyz)), replace=False))

@@ -34,7 +34,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from fit_candidate_mix import load_cloud, pick_clouds, unit, write_atomic  # noqa: E402
 
-MEMBERS, FEATURES, GATE_HIDDEN, CUT = 64, 7, 16, 20000
+MEMBERS, FEATURES, GATE_HIDDEN = 64, 7, 16  # MEMBERS: learned_fit.hpp's kFitMembers
 
 
 def spread(k: int, m: int):
@@ -58,20 +58,17 @@ def data_clouds(a) -> list:
 
 
 def cloud_data(a, c: dict) -> dict:
-    """Members (spread over max(k, MEMBERS) nearest), their offsets and normals, of sampled
+    """Members (spread over max(k, --members) nearest), their offsets and normals, of sampled
     points of cloud c, with the default pipeline's normals before the learned fit."""
     import nhnet
     from scipy.spatial import cKDTree
-    xyz, gt, rows = load_cloud(Path(a.data_dir), a.split, c)
-    if len(xyz) > CUT:  # the benchmark's density (bench/nhnet_bench.py FULL_POINTS)
-        keep = np.sort(np.random.default_rng(11).choice(len(xyz), CUT, replace=False))
-        xyz, gt = xyz[keep], gt[keep]
-        rows = np.sort(np.random.default_rng(7).choice(CUT, 4000, replace=False))
+    # cut to the benchmark's density (bench/nhnet_bench.py FULL_POINTS)
+    xyz, gt, rows = load_cloud(Path(a.data_dir), a.split, c, cut=True)
     rows = rows[::max(1, len(rows) // a.rows)][:a.rows]
     r = nhnet.estimate(xyz, method="nhnet", orient=None, threads=a.threads, learned_fit=False)
     n0, k = np.asarray(r.normals), int(r.k_used)
-    _, nb = cKDTree(xyz).query(xyz[rows], k=min(max(k, MEMBERS), len(xyz)))
-    nb = nb[:, spread(nb.shape[1], MEMBERS)]
+    _, nb = cKDTree(xyz).query(xyz[rows], k=min(max(k, a.members), len(xyz)))
+    nb = nb[:, spread(nb.shape[1], a.members)]
     return dict(q=(xyz[nb] - xyz[rows][:, None]).astype(np.float32),
                 nn=n0[nb].astype(np.float32), n0=n0[rows], gt=unit(gt[rows]),
                 noise=float(r.noise_ratio), k=k, cat=c.get("category", ""),
@@ -188,6 +185,9 @@ def cmd_fit(a) -> int:
     m.load_state_dict(state)
     print(f"best validation RMS {best:.3f} deg, {len(n0)} points")
     if a.write:
+        if q.shape[1] != MEMBERS:
+            sys.exit(f"fit: {a.data} has {q.shape[1]} members per point; the C++ fit takes "
+                     f"{MEMBERS} (learned_fit.hpp kFitMembers): not written")
         write_inc(m, Path(a.write), a)
     return 0
 
@@ -277,6 +277,9 @@ def main(argv=None) -> int:
                    help="training split: every cloud, not three levels per model")
     d.add_argument("--per-category", type=int, default=0, help="test split: clouds per category")
     d.add_argument("--rows", type=int, default=4000, help="sampled points per cloud")
+    d.add_argument("--members", type=int, default=MEMBERS,
+                   help=f"members per point (default {MEMBERS}, the C++'s; others: fit and "
+                        "report only, an experiment)")
     f = sub.add_parser("fit")
     f.add_argument("data")
     f.add_argument("--write", default="")

@@ -24,7 +24,8 @@ def deg(a, b):
 
 def test_cpp_pipeline_is_the_tools_fit(tmp_path):
     cloud = one_cloud_benchmark(tmp_path)
-    a = types.SimpleNamespace(data_dir=str(tmp_path), split="benchmark", rows=800, threads=1)
+    a = types.SimpleNamespace(data_dir=str(tmp_path), split="benchmark", rows=800, threads=1,
+                              members=lf.MEMBERS)
     z = lf.cloud_data(a, cloud)
     m = lf.read_inc(SHIPPED, torch)
     with torch.no_grad():
