@@ -367,3 +367,16 @@ TEST(Bandwidth, SpreadSubsetEstimatesTheWholeNeighbourhood) {
   EXPECT_LE(ratio, 1.12);
   EXPECT_FALSE(sub == all);  // the subset is in use
 }
+
+TEST(Bandwidth, RefusesAPatchCountThatSpreadsNothing) {
+  // One patch or a negative count used to mean "all patches" without a word.
+  const auto f = fixtures::cube(500, 0.01, 6);
+  const IndexMatrix knn = fixtures::knn_table(f.points, 40);
+  BandwidthOptions bo;
+  for (const int bad : {1, -1, -128}) {
+    bo.max_patches = bad;
+    EXPECT_THROW(residual_bandwidth(f.points, knn, 0.1, bo), InvalidOptions) << bad;
+  }
+  bo.max_patches = 2;
+  EXPECT_EQ(residual_bandwidth(f.points, knn, 0.1, bo).size(), 500);
+}

@@ -18,6 +18,8 @@ Eigen::VectorXd residual_bandwidth(const Points& points, const IndexMatrix& knn,
                                    const PcaResult* planes) {
   const Eigen::Index n = points.rows();
   if (knn.rows() != n) throw InvalidOptions("residual_bandwidth: knn must have one row per point");
+  if (options.max_patches != 0 && options.max_patches < 2)  // 1 or negative meant all, silently
+    throw InvalidOptions("residual_bandwidth: max_patches must be 0 (all patches) or at least 2");
   const int kp = int(std::min<Eigen::Index>(std::max(3, options.k_patch), knn.cols()));
   const int ka = int(std::min<Eigen::Index>(std::max(1, options.k_average), knn.cols()));
   const int mp = detail::spread_count(kp, options.max_patches);

@@ -19,7 +19,8 @@ struct BandwidthOptions {
   int k_average = 225;
   /// A point takes its residual from the best of at most this many of the k_patch patches
   /// around it, spread evenly over their distance ranks (0 = all, the authors' behaviour), so
-  /// that the search's cost per point does not grow with the noise-driven k (issue 23).
+  /// that the search's cost per point does not grow with the noise-driven k (issue 23); 1 or
+  /// less than 0 is refused (InvalidOptions).
   int max_patches = 128;
   /// Lower bound of a bandwidth as a fraction of the point spacing, so that exactly planar data
   /// keeps a usable (non-zero) kernel.
