@@ -104,8 +104,12 @@ def load_dir(d: str, torch):
     return (*t, cid, meta)
 
 
-def make_fit(torch, hidden: int, ridge: float):
+def make_fit(torch, hidden: int, ridge: float, tilt: bool = False):
+    """LearnedFit; `tilt` (an experiment, not in the C++) adds two member features: the tilt of
+    the member's normal (oriented like the point's) towards or away from the point, and the
+    size of its sideways tilt."""
     nn = torch.nn
+    features = FEATURES + (2 if tilt else 0)
 
     def axes(n):
         e = torch.where(n[:, :1].abs() < 0.9, torch.tensor([1.0, 0, 0]).expand_as(n),
@@ -117,7 +121,8 @@ def make_fit(torch, hidden: int, ridge: float):
         def __init__(self):
             super().__init__()
             self.ridge = ridge
-            self.l1, self.l2 = nn.Linear(FEATURES, hidden), nn.Linear(hidden, hidden)
+            self.tilt = tilt
+            self.l1, self.l2 = nn.Linear(features, hidden), nn.Linear(hidden, hidden)
             self.l3, self.l4 = nn.Linear(2 * hidden, hidden), nn.Linear(hidden, 1)
             self.g1, self.g2 = nn.Linear(hidden + 1, GATE_HIDDEN), nn.Linear(GATE_HIDDEN, 1)
 
@@ -127,8 +132,14 @@ def make_fit(torch, hidden: int, ridge: float):
             u, v, h = ((q * d[:, None]).sum(2) / r for d in (a, b, n0))
             c = (nn_ * n0[:, None]).sum(2).abs()
             rank = torch.linspace(0, 1, q.shape[1]).expand_as(u)
-            f = torch.stack([torch.sqrt(u * u + v * v), 10 * (h - h.mean(1, keepdim=True)).abs(),
-                             10 * h.abs(), 1 - c, c, rank, noise[:, None].expand_as(u)], 2)
+            cols = [torch.sqrt(u * u + v * v), 10 * (h - h.mean(1, keepdim=True)).abs(),
+                    10 * h.abs(), 1 - c, c, rank, noise[:, None].expand_as(u)]
+            if self.tilt:
+                sign = torch.sign((nn_ * n0[:, None]).sum(2))
+                na, nb = ((nn_ * d[:, None]).sum(2) * sign for d in (a, b))
+                rho = cols[0].clamp_min(1e-6)
+                cols += [10 * (na * u + nb * v) / rho, 10 * (nb * u - na * v).abs() / rho]
+            f = torch.stack(cols, 2)
             e = torch.relu(self.l2(torch.relu(self.l1(f))))
             pooled = e.amax(1)
             w = nn.functional.softplus(
@@ -160,7 +171,7 @@ def cmd_fit(a) -> int:
                                         for m in meta], dtype=np.float32)[cid])
     perm = torch.randperm(len(n0))
     val, train = perm[:len(n0) // 10], perm[len(n0) // 10:]
-    m = make_fit(torch, a.hidden, a.ridge)
+    m = make_fit(torch, a.hidden, a.ridge, a.tilt)
     opt = torch.optim.Adam(m.parameters(), lr=a.lr)
     sched = torch.optim.lr_scheduler.CosineAnnealingLR(opt, a.epochs)
     best, t0 = float("inf"), time.time()
@@ -185,6 +196,8 @@ def cmd_fit(a) -> int:
     m.load_state_dict(state)
     print(f"best validation RMS {best:.3f} deg, {len(n0)} points")
     if a.write:
+        if a.tilt:
+            sys.exit("fit: --tilt is an experiment the C++ does not compute: not written")
         if q.shape[1] != MEMBERS:
             sys.exit(f"fit: {a.data} has {q.shape[1]} members per point; the C++ fit takes "
                      f"{MEMBERS} (learned_fit.hpp kFitMembers): not written")
@@ -289,6 +302,8 @@ def main(argv=None) -> int:
     f.add_argument("--batch", type=int, default=256)
     f.add_argument("--lr", type=float, default=1e-3)
     f.add_argument("--seed", type=int, default=0)
+    f.add_argument("--tilt", action="store_true",
+                   help="experiment: two more member features (make_fit); reports validation only")
     f.add_argument("--analytic-weight", type=float, default=8.0,
                    help="weight of a point of the analytic split in the loss (others: 1)")
     r = sub.add_parser("report")

@@ -19,8 +19,7 @@ namespace {
 /// Mean distance between points taken one after the other in `order`.
 double mean_step(const Points& p, const std::vector<int64_t>& order) {
   double sum = 0;
-  for (size_t i = 1; i < order.size(); ++i)
-    sum += (p.row(order[i]) - p.row(order[i - 1])).norm();
+  for (size_t i = 1; i < order.size(); ++i) sum += (p.row(order[i]) - p.row(order[i - 1])).norm();
   return sum / double(order.size() - 1);
 }
 
