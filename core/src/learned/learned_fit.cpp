@@ -81,7 +81,7 @@ bool member_frame(const LearnedFitInput& in, Eigen::Index i, const Eigen::Vector
   for (int j = 0; j < kM; ++j) {
     const auto nj = in.normals->row((*in.members)(i, j));
     const double c = nj.allFinite() ? std::abs(nj.dot(n.transpose())) : 0.0;
-    const double f[kF - 1] = {std::hypot(fr.u[j], fr.v[j]),
+    const double f[kF - 1] = {std::sqrt(fr.u[j] * fr.u[j] + fr.v[j] * fr.v[j]),  // the tool's
                               10 * std::abs(fr.h[j] - mean_h),
                               10 * std::abs(fr.h[j]),
                               1 - c,
@@ -130,7 +130,7 @@ Eigen::Vector3d weighted_jet(const Frame& fr, const float* w, const Eigen::Vecto
     const double u = fr.u[j], v = fr.v[j];
     Eigen::Matrix<double, 6, 1> row;
     row << 1, u, v, u * u, u * v, v * v;
-    ata.noalias() += double(w[j]) * row * row.transpose();
+    ata.selfadjointView<Eigen::Lower>().rankUpdate(row, double(w[j]));  // LDLT reads Lower
     atb.noalias() += double(w[j]) * fr.h[j] * row;
     total += double(w[j]);
   }
