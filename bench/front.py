@@ -142,8 +142,8 @@ def report(res: dict) -> str:
           "- time: the whole `nhnet-cli estimate` process (read, estimate, MST orientation, "
           "write) / PCL NormalEstimationOMP (k=50) as a process, the mean of the runs just "
           "before and after", "",
-          "| size | " + " | ".join(f"{c} RMS / mean" for c in cats) + " | all RMS / mean | "
-          + " | ".join(f"× PCL {c}" for c in res["clouds"]) + " |",
+          "| size | " + " | ".join(f"{c} RMS / mean" for c in cats)
+          + " | categories' mean RMS / mean | " + " | ".join(f"× PCL {c}" for c in res["clouds"]) + " |",
           "|---|" + "---|" * (len(cats) + 1 + len(res["clouds"]))]
     for name, s in sizes.items():
         acc = s["accuracy"]
