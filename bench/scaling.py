@@ -119,53 +119,49 @@ def run_method(bench, worker: Path, method: str, gt: Path, threads: int, timeout
     return rec
 
 
+def run_cli(bench, cli: Path, method: str, cmd: list[str], gt: Path, out: Path, timeout: float,
+            time_of) -> dict:
+    """One whole `nhnet-cli estimate` (cmd, writing `out`), then `nhnet-cli eval` of `out` against
+    the cloud's normals (the ground truth). Nothing was resident before the process: its peak is
+    its own; time_of(record, summary) is the run's seconds."""
+    rec, res = run_json(bench, method, cmd, timeout)
+    if res is None:
+        out.unlink(missing_ok=True)
+        return rec
+    rec.update(time_s=time_of(rec, res), rss_before_mb=0.0, k_used=res["k"],
+               scales_used=res["scales"], points=res["points"])
+    if "tiles" in res:
+        rec["tiles"] = res["tiles"]
+    ev, score = run_json(bench, method, [str(cli), "eval", str(out), str(gt), "--json"], timeout)
+    if score is None:
+        rec["error"] = "eval " + ev["error"]
+    else:
+        rec.update(mean_deg=score["mean_deg"], rms_deg=score["rms_deg"])
+    out.unlink(missing_ok=True)
+    return rec
+
+
 def run_stream(bench, cli: Path, method: str, gt: Path, threads: int, timeout: float,
                work: Path) -> dict:
-    """`nhnet-cli estimate --stream` on the cloud's text file, then `nhnet-cli eval` of its output
-    against the same file's normals (the ground truth)."""
+    """`nhnet-cli estimate --stream` on the cloud's text file, timed by its own summary."""
     out, tiles = work / f"{gt.name}.{method}.xyzn", work / "stream-tiles"
     tiles.mkdir(parents=True, exist_ok=True)
     cmd = [str(cli), "estimate", str(gt), str(out), "--method", STREAM_METHODS[method], "--stream",
            "--temp-dir", str(tiles), "--threads", str(threads), "--orient", "none", "--quiet",
            "--json", "--overwrite"]
-    rec, res = run_json(bench, method, cmd, timeout)
-    if res is None:
-        out.unlink(missing_ok=True)
-        return rec
-    # The whole process is the run: nothing was resident before it.
-    rec.update(time_s=res["seconds"], rss_before_mb=0.0, k_used=res["k"],
-               scales_used=res["scales"], points=res["points"], tiles=res["tiles"])
-    ev, score = run_json(bench, method, [str(cli), "eval", str(out), str(gt), "--json"], timeout)
-    if score is None:
-        rec["error"] = "eval " + ev["error"]
-    else:
-        rec.update(mean_deg=score["mean_deg"], rms_deg=score["rms_deg"])
-    out.unlink(missing_ok=True)
-    return rec
+    return run_cli(bench, cli, method, cmd, gt, out, timeout, lambda rec, res: res["seconds"])
 
 
 def run_whole(bench, cli: Path, method: str, gt: Path, threads: int, timeout: float,
               work: Path) -> dict:
-    """The whole `nhnet-cli estimate NAME.xyz OUT` process (its wall time from the start of the
-    process to its exit), then `nhnet-cli eval` of its output against the cloud's normals."""
+    """The whole `nhnet-cli estimate NAME.xyz OUT` process, timed from its start to its exit."""
     sys.path.insert(0, str(bench.REPO / "tools"))
     from ab_timing import xyz_of  # the bare coordinates, written once per cloud
     xyz, out = xyz_of(gt, gt.parent), work / f"{gt.name}.{method}.xyzn"
     cmd = [str(cli), "estimate", str(xyz), str(out), "--threads", str(threads), "--quiet",
            "--json", "--overwrite"] + WHOLE_METHODS[method]
-    rec, res = run_json(bench, method, cmd, timeout)
-    if res is None:
-        out.unlink(missing_ok=True)
-        return rec
-    rec.update(time_s=rec["child_wall_s"], rss_before_mb=0.0, k_used=res["k"],
-               scales_used=res["scales"], points=res["points"])
-    ev, score = run_json(bench, method, [str(cli), "eval", str(out), str(gt), "--json"], timeout)
-    if score is None:
-        rec["error"] = "eval " + ev["error"]
-    else:
-        rec.update(mean_deg=score["mean_deg"], rms_deg=score["rms_deg"])
-    out.unlink(missing_ok=True)
-    return rec
+    return run_cli(bench, cli, method, cmd, gt, out, timeout,
+                   lambda rec, res: rec["child_wall_s"])
 
 
 def derive(rec: dict, n: int, threads: int, pcl_before: dict | None, pcl_after: dict | None) -> None:
