@@ -33,11 +33,11 @@ import tempfile
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(REPO / "tools"))
+sys.path[:0] = [str(REPO / "tools"), str(REPO / "bench")]
 from ab_timing import run, xyz_of  # noqa: E402
+import nhnet_bench  # noqa: E402
 
-CATEGORIES = ["SharpFeature", "RichFeature", "SmoothSurface", "BigNoise", "PCPNetNoise",
-              "PCPNetDensity"]
+CATEGORIES = list(nhnet_bench.PROTOCOL_K)  # the test split's categories, in the tables' order
 SHIPPED = "h16"  # the size whose weights are core/src/learned/learned_fit_weights.inc
 
 
@@ -115,8 +115,8 @@ def per_category(records: list[dict], method: str, k: int | None = None) -> dict
         rs = [r for r in records if r["method"] == method and r["category"] == c
               and "rms_deg" in r and (k is None or r["k"] == k)]
         if rs:
-            rows[c] = {"rms": statistics.mean(r["rms_deg"] for r in rs),
-                       "mean": statistics.mean(r["mean_deg"] for r in rs), "clouds": len(rs)}
+            agg = nhnet_bench.aggregate(rs, {})  # the bench tables' means over clouds
+            rows[c] = {"rms": agg["rms_deg"], "mean": agg["mean_deg"], "clouds": agg["ok"]}
     return rows
 
 

@@ -251,7 +251,7 @@ def aggregate(recs: list[dict], ref_time: dict) -> dict:
         out[key] = 100.0 * sum(r[key] for r in ok) / n
     out["time_s"] = sum(r["time_s"] for r in ok) / n
     ratios = [r["time_s"] / ref_time[r["_ref"]] for r in ok
-              if ref_time.get(r["_ref"], 0) > 0 and r["time_s"] > 0]
+              if ref_time.get(r.get("_ref"), 0) > 0 and r["time_s"] > 0]
     out["ratio"] = math.exp(sum(map(math.log, ratios)) / len(ratios)) if ratios else None
     out["peak_mb"] = max(r["peak_mb"] for r in ok)
     out["delta_mb"] = max(r["peak_mb"] - r["rss_before_mb"] for r in ok)

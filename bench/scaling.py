@@ -39,6 +39,9 @@ import sys
 import time
 from pathlib import Path
 
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tools"))
+from ab_timing import xyz_of  # noqa: E402  (the bare coordinates, written once per cloud)
+
 BASE_POINTS = 100_000
 BASE_NOISE_PERCENT = 0.1
 PCL_K = 50
@@ -155,8 +158,6 @@ def run_stream(bench, cli: Path, method: str, gt: Path, threads: int, timeout: f
 def run_whole(bench, cli: Path, method: str, gt: Path, threads: int, timeout: float,
               work: Path) -> dict:
     """The whole `nhnet-cli estimate NAME.xyz OUT` process, timed from its start to its exit."""
-    sys.path.insert(0, str(bench.REPO / "tools"))
-    from ab_timing import xyz_of  # the bare coordinates, written once per cloud
     xyz, out = xyz_of(gt, gt.parent), work / f"{gt.name}.{method}.xyzn"
     cmd = [str(cli), "estimate", str(xyz), str(out), "--threads", str(threads), "--quiet",
            "--json", "--overwrite"] + WHOLE_METHODS[method]

@@ -53,20 +53,23 @@ struct Layers {
 /// A point's members in its normal's frame: scaled tangent coordinates and heights (u, v, h)
 /// and tangent axes, as LearnedFit.forward.
 struct Frame {
-  Eigen::Vector3d a, b;
+  Eigen::Vector3d n, a, b;  ///< the point's normal (the frame's third axis) and tangent axes
   Eigen::Matrix<double, kM, 1> u, v, h;
 };
 
-/// Frame of point i and its members' features (kM rows of `features` from `row`); false when
-/// its members all sit on it (no radius). `noise`: log of the cloud's noise ratio.
-bool member_frame(const LearnedFitInput& in, Eigen::Index i, const Eigen::Vector3d& n, float noise,
-                  Frame& fr, Eigen::MatrixXf& features, Eigen::Index row) {
+/// Frame of point i, whose normal is fr.n, and its members' features (kM rows of `features`
+/// from `row`); false when its members all sit on it (no radius). `noise`: log of the cloud's
+/// noise ratio.
+bool member_frame(const LearnedFitInput& in, Eigen::Index i, float noise, Frame& fr,
+                  Eigen::MatrixXf& features, Eigen::Index row) {
   const Points& pts = *in.points;
-  const Eigen::Vector3d p = pts.row(i).transpose();
+  const Eigen::Vector3d p = pts.row(i).transpose(), n = fr.n;
+  std::array<Eigen::Index, kM> member;
   std::array<Eigen::Vector3d, kM> q;
   double radius = 0;
   for (int j = 0; j < kM; ++j) {
-    q[size_t(j)] = pts.row((*in.members)(i, j)).transpose() - p;
+    member[size_t(j)] = Eigen::Index((*in.members)(i, j));
+    q[size_t(j)] = pts.row(member[size_t(j)]).transpose() - p;
     radius = std::max(radius, q[size_t(j)].norm());
   }
   if (!(radius > 0)) return false;
@@ -79,7 +82,7 @@ bool member_frame(const LearnedFitInput& in, Eigen::Index i, const Eigen::Vector
   }
   const double mean_h = fr.h.mean();
   for (int j = 0; j < kM; ++j) {
-    const auto nj = in.normals->row((*in.members)(i, j));
+    const auto nj = in.normals->row(member[size_t(j)]);
     const double c = nj.allFinite() ? std::abs(nj.dot(n.transpose())) : 0.0;
     const double f[kF - 1] = {std::sqrt(fr.u[j] * fr.u[j] + fr.v[j] * fr.v[j]),  // the tool's
                               10 * std::abs(fr.h[j] - mean_h),
@@ -121,8 +124,8 @@ void member_weights(const Layers& l, const Eigen::MatrixXf& features, Eigen::Ind
   for (Eigen::Index r = 0; r < len; ++r) gates[r] = 1 / (1 + std::exp(-(gates[r] + kGB2)));
 }
 
-/// The weighted jet's normal in frame fr (n - c1 a - c2 b), or NaN when the system is singular.
-Eigen::Vector3d weighted_jet(const Frame& fr, const float* w, const Eigen::Vector3d& n) {
+/// The weighted jet's normal in frame fr (fr.n - c1 a - c2 b), or NaN when the system is singular.
+Eigen::Vector3d weighted_jet(const Frame& fr, const float* w) {
   Eigen::Matrix<double, 6, 6> ata = Eigen::Matrix<double, 6, 6>::Zero();
   Eigen::Matrix<double, 6, 1> atb = Eigen::Matrix<double, 6, 1>::Zero();
   double total = 0;
@@ -140,7 +143,7 @@ Eigen::Vector3d weighted_jet(const Frame& fr, const float* w, const Eigen::Vecto
   const Eigen::Matrix<double, 6, 1> c = ldlt.solve(atb);
   if (ldlt.info() != Eigen::Success || !c.allFinite())
     return Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
-  return (n - c[1] * fr.a - c[2] * fr.b).normalized();
+  return (fr.n - c[1] * fr.a - c[2] * fr.b).normalized();
 }
 
 /// Refits the points rows[0, len) into `out`; a point whose fit is degenerate keeps its normal.
@@ -150,17 +153,17 @@ void fit_block(const LearnedFitInput& in, const Layers& l, const int64_t* rows, 
   std::vector<uint8_t> ok(size_t(len), 0);
   Eigen::MatrixXf features = Eigen::MatrixXf::Zero(len * kM, kF);
   for (Eigen::Index r = 0; r < len; ++r) {
-    const Eigen::Vector3d n = in.normals->row(rows[r]).transpose();
-    ok[size_t(r)] =
-        n.allFinite() && member_frame(in, rows[r], n, noise, frames[size_t(r)], features, r * kM);
+    Frame& fr = frames[size_t(r)];
+    fr.n = in.normals->row(rows[r]).transpose();
+    ok[size_t(r)] = fr.n.allFinite() && member_frame(in, rows[r], noise, fr, features, r * kM);
   }
   Eigen::VectorXf weights, gates;
   member_weights(l, features, len, noise, weights, gates);
   for (Eigen::Index r = 0; r < len; ++r) {
-    const Eigen::Vector3d n = in.normals->row(rows[r]).transpose();
+    const Eigen::Vector3d& n = frames[size_t(r)].n;
     out.row(rows[r]) = n.transpose();
     if (!ok[size_t(r)]) continue;
-    const Eigen::Vector3d fitted = weighted_jet(frames[size_t(r)], &weights[r * kM], n);
+    const Eigen::Vector3d fitted = weighted_jet(frames[size_t(r)], &weights[r * kM]);
     if (!fitted.allFinite()) continue;
     const Eigen::Vector3d mixed = n + double(gates[r]) * (fitted - n);
     if (mixed.norm() > 1e-12) out.row(rows[r]) = mixed.normalized().transpose();
