@@ -11,6 +11,7 @@
 
 #include <cmath>
 #include <limits>
+#include <vector>
 
 namespace nhnet {
 
@@ -24,9 +25,11 @@ Eigen::Vector3d jet_row(const Points& points, const int32_t* idx, int k, const E
   Eigen::Vector3d a, b;
   detail::tangent_axes(n, a, b);
   const Eigen::Vector3d p = points.row(i).transpose();
+  thread_local std::vector<Eigen::Vector3d> offsets;  // the neighbours read once (per thread)
+  offsets.resize(size_t(k));
   double s2 = 0;
   for (int j = 0; j < k; ++j) {
-    const Eigen::Vector3d q = points.row(idx[j]).transpose() - p;
+    const Eigen::Vector3d q = offsets[size_t(j)] = points.row(idx[j]).transpose() - p;
     s2 += q.dot(a) * q.dot(a) + q.dot(b) * q.dot(b);
   }
   const double s = std::sqrt(s2 / k);
@@ -34,11 +37,11 @@ Eigen::Vector3d jet_row(const Points& points, const int32_t* idx, int k, const E
   Eigen::Matrix<double, 6, 6> ata = Eigen::Matrix<double, 6, 6>::Zero();
   Eigen::Matrix<double, 6, 1> atb = Eigen::Matrix<double, 6, 1>::Zero();
   for (int j = 0; j < k; ++j) {
-    const Eigen::Vector3d q = (points.row(idx[j]).transpose() - p) / s;
+    const Eigen::Vector3d q = offsets[size_t(j)] / s;
     const double u = q.dot(a), v = q.dot(b);
     Eigen::Matrix<double, 6, 1> row;
     row << 1, u, v, u * u, u * v, v * v;
-    ata.noalias() += row * row.transpose();
+    ata.selfadjointView<Eigen::Lower>().rankUpdate(row);  // LDLT reads the lower triangle
     atb.noalias() += row * q.dot(n);
   }
   const Eigen::LDLT<Eigen::Matrix<double, 6, 6>> ldlt(ata);

@@ -15,12 +15,14 @@ namespace nhnet {
 
 namespace {
 
-/// The ball-cell pairs of one height map before their weights (per thread, reused).
+/// The ball-cell pairs of one height map before their weights (per thread, reused: sized once
+/// for the largest neighbourhood, so no allocation per point).
 struct Contributions {
   std::vector<int> cell;       // row-major cell index
   std::vector<double> dist2;   // squared distance to the cell centre, in cells
   std::vector<double> height;  // the neighbour's height, in cells
-  Eigen::ArrayXd weight;       // exp(-dist2 / 2)
+  std::vector<double> weight;  // exp(-dist2 / 2)
+  size_t count = 0;            // pairs in use
 
   /// Every (neighbour, cell) pair within the ball, in neighbour order then row-major cell
   /// order, for the map of frame (x, y, nf) with cells of size 1 / inv_h on an m x m grid; then
@@ -28,16 +30,22 @@ struct Contributions {
   void collect(const std::vector<Eigen::Vector3d>& d, const Eigen::Vector3d& nf,
                const Eigen::Vector3d& x, const Eigen::Vector3d& y, double inv_h, int m,
                double ball) {
-    cell.clear();
-    dist2.clear();
-    height.clear();
+    const int span = int(2 * ball) + 1;  // cells a ball can reach along one axis
+    const size_t most = d.size() * size_t(span * span);
+    if (cell.size() < most) {
+      cell.resize(most);
+      dist2.resize(most);
+      height.resize(most);
+      weight.resize(most);
+    }
+    count = 0;
     const int half = m / 2;
     const double ball2 = ball * ball;
     for (const Eigen::Vector3d& v : d) {
       const double z = v.dot(nf) * inv_h;  // height in cells
-      const double u = v.dot(x) * inv_h + half, w = v.dot(y) * inv_h + half;
       const double z2 = z * z;
       if (z2 > ball2) continue;
+      const double u = v.dot(x) * inv_h + half, w = v.dot(y) * inv_h + half;
       const int r0 = std::max(0, int(std::ceil(u - ball)));
       const int r1 = std::min(m - 1, int(std::floor(u + ball)));
       const int c0 = std::max(0, int(std::ceil(w - ball)));
@@ -46,17 +54,20 @@ struct Contributions {
         for (int cc = c0; cc <= c1; ++cc) {
           const double e2 = (u - rr) * (u - rr) + (w - cc) * (w - cc) + z2;
           if (e2 > ball2) continue;
-          cell.push_back(rr * m + cc);
-          dist2.push_back(e2);
-          height.push_back(z);
+          cell[count] = rr * m + cc;
+          dist2[count] = e2;
+          height[count] = z;
+          ++count;
         }
     }
-    weight =
-        (Eigen::Map<const Eigen::ArrayXd>(dist2.data(), Eigen::Index(dist2.size())) * -0.5).exp();
+    const auto n = Eigen::Index(count);
+    Eigen::Map<Eigen::ArrayXd>(weight.data(), n) =
+        (Eigen::Map<const Eigen::ArrayXd>(dist2.data(), n) * -0.5).exp();
   }
 };
 
 thread_local Contributions contributions;
+thread_local std::vector<double> cell_sums;  // per thread: 2 m^2 sums (weights, heights)
 thread_local std::vector<Eigen::Vector3d> offsets;
 
 }  // namespace
@@ -100,7 +111,9 @@ HeightMaps height_maps(const Points& points, const IndexMatrix& knn, int k,
       return;
     }
     const double inv_h = 1.0 / h;
-    std::vector<double> wsum(static_cast<size_t>(mm)), zsum(static_cast<size_t>(mm));
+    cell_sums.resize(2 * size_t(mm));
+    double* wsum = cell_sums.data();
+    double* zsum = wsum + mm;
     for (int a = 0; a < f; ++a) {
       const Eigen::Vector3d nf = r.transpose() * frames.rotated.block<1, 3>(i, 3 * a).transpose();
       Eigen::Vector3d x = e1 - e1.dot(nf) * nf;
@@ -110,14 +123,13 @@ HeightMaps height_maps(const Points& points, const IndexMatrix& knn, int k,
       y = y.norm() > 1e-6 ? Eigen::Vector3d(y.normalized()) : Eigen::Vector3d(nf.cross(x));
       Contributions& ct = contributions;
       ct.collect(d, nf, x, y, inv_h, m, options.ball);
-      std::fill(wsum.begin(), wsum.end(), 0.0);
-      std::fill(zsum.begin(), zsum.end(), 0.0);
-      for (size_t e = 0; e < ct.cell.size(); ++e) {
-        wsum[size_t(ct.cell[e])] += ct.weight[Eigen::Index(e)];
-        zsum[size_t(ct.cell[e])] += ct.weight[Eigen::Index(e)] * ct.height[e];
+      std::fill(wsum, wsum + 2 * mm, 0.0);
+      for (size_t e = 0; e < ct.count; ++e) {
+        wsum[ct.cell[e]] += ct.weight[e];
+        zsum[ct.cell[e]] += ct.weight[e] * ct.height[e];
       }
       for (int b = 0; b < mm; ++b)
-        out(i, a * mm + b) = wsum[size_t(b)] > 0 ? float(zsum[size_t(b)] / wsum[size_t(b)]) : 0.0f;
+        out(i, a * mm + b) = wsum[b] > 0 ? float(zsum[b] / wsum[b]) : 0.0f;
     }
   });
   return out;
