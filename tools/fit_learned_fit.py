@@ -132,7 +132,8 @@ def make_fit(torch, hidden: int, ridge: float, tilt: bool = False):
             u, v, h = ((q * d[:, None]).sum(2) / r for d in (a, b, n0))
             c = (nn_ * n0[:, None]).sum(2).abs()
             rank = torch.linspace(0, 1, q.shape[1]).expand_as(u)
-            cols = [torch.sqrt(u * u + v * v), 10 * (h - h.mean(1, keepdim=True)).abs(),
+            cols = [torch.sqrt((u * u + v * v).clamp_min(1e-30)),  # finite gradient at the point itself
+                     10 * (h - h.mean(1, keepdim=True)).abs(),
                     10 * h.abs(), 1 - c, c, rank, noise[:, None].expand_as(u)]
             if self.tilt:
                 sign = torch.sign((nn_ * n0[:, None]).sum(2))
@@ -155,6 +156,25 @@ def make_fit(torch, hidden: int, ridge: float, tilt: bool = False):
     return LearnedFit()
 
 
+def make_passes(torch, passes: int, hidden: int, ridge: float, tilt: bool = False):
+    """`passes` LearnedFits in a row (an experiment, not in the C++): each after the first takes
+    the one before's normal as the point's normal (its frame and the members' agreement)."""
+    if passes == 1:
+        return make_fit(torch, hidden, ridge, tilt)
+
+    class Passes(torch.nn.Module):
+        def __init__(self):
+            super().__init__()
+            self.fits = torch.nn.ModuleList(make_fit(torch, hidden, ridge, tilt) for _ in range(passes))
+
+        def forward(self, q, nn_, n0, noise):
+            for f in self.fits:
+                n0 = f(q, nn_, n0, noise)
+            return n0
+
+    return Passes()
+
+
 def angle(torch, a, b):
     """Unoriented angle between unit rows, radians (atan2 form, as the C++)."""
     return torch.atan2(torch.linalg.cross(a, b).norm(dim=1), (a * b).sum(1).abs())
@@ -171,7 +191,7 @@ def cmd_fit(a) -> int:
                                         for m in meta], dtype=np.float32)[cid])
     perm = torch.randperm(len(n0))
     val, train = perm[:len(n0) // 10], perm[len(n0) // 10:]
-    m = make_fit(torch, a.hidden, a.ridge, a.tilt)
+    m = make_passes(torch, a.passes, a.hidden, a.ridge, a.tilt)
     opt = torch.optim.Adam(m.parameters(), lr=a.lr)
     sched = torch.optim.lr_scheduler.CosineAnnealingLR(opt, a.epochs)
     best, t0 = float("inf"), time.time()
@@ -196,6 +216,8 @@ def cmd_fit(a) -> int:
     m.load_state_dict(state)
     print(f"best validation RMS {best:.3f} deg, {len(n0)} points")
     if a.write:
+        if a.passes != 1:
+            sys.exit("fit: --passes is an experiment the C++ does not compute: not written")
         if a.tilt:
             sys.exit("fit: --tilt is an experiment the C++ does not compute: not written")
         if q.shape[1] != MEMBERS:
@@ -304,6 +326,8 @@ def main(argv=None) -> int:
     f.add_argument("--seed", type=int, default=0)
     f.add_argument("--tilt", action="store_true",
                    help="experiment: two more member features (make_fit); reports validation only")
+    f.add_argument("--passes", type=int, default=1,
+                   help="experiment: fits in a row (make_passes); reports validation only")
     f.add_argument("--analytic-weight", type=float, default=8.0,
                    help="weight of a point of the analytic split in the loss (others: 1)")
     r = sub.add_parser("report")
