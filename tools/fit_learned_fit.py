@@ -104,10 +104,12 @@ def load_dir(d: str, torch):
     return (*t, cid, meta)
 
 
-def make_fit(torch, hidden: int, ridge: float, tilt: bool = False):
-    """LearnedFit; `tilt` (an experiment, not in the C++) adds two member features: the tilt of
-    the member's normal (oriented like the point's) towards or away from the point, and the
-    size of its sideways tilt."""
+def make_fit(torch, hidden: int, ridge: float, tilt: bool = False, degree: int = 2,
+             offsets: float = 0.0):
+    """LearnedFit. Experiments, not in the C++: `tilt` adds two member features (the tilt of the
+    member's normal, oriented like the point's, towards or away from the point, and the size of
+    its sideways tilt); `degree` 3 fits a cubic jet; `offsets` > 0 lets the network move each
+    member's height by `offsets` times a second output before the fit (AdaFit's idea)."""
     nn = torch.nn
     features = FEATURES + (2 if tilt else 0)
 
@@ -123,7 +125,7 @@ def make_fit(torch, hidden: int, ridge: float, tilt: bool = False):
             self.ridge = ridge
             self.tilt = tilt
             self.l1, self.l2 = nn.Linear(features, hidden), nn.Linear(hidden, hidden)
-            self.l3, self.l4 = nn.Linear(2 * hidden, hidden), nn.Linear(hidden, 1)
+            self.l3, self.l4 = nn.Linear(2 * hidden, hidden), nn.Linear(hidden, 2 if offsets else 1)
             self.g1, self.g2 = nn.Linear(hidden + 1, GATE_HIDDEN), nn.Linear(GATE_HIDDEN, 1)
 
         def forward(self, q, nn_, n0, noise):
@@ -132,22 +134,27 @@ def make_fit(torch, hidden: int, ridge: float, tilt: bool = False):
             u, v, h = ((q * d[:, None]).sum(2) / r for d in (a, b, n0))
             c = (nn_ * n0[:, None]).sum(2).abs()
             rank = torch.linspace(0, 1, q.shape[1]).expand_as(u)
-            cols = [torch.sqrt((u * u + v * v).clamp_min(1e-30)),  # finite gradient at the point itself
-                     10 * (h - h.mean(1, keepdim=True)).abs(),
-                    10 * h.abs(), 1 - c, c, rank, noise[:, None].expand_as(u)]
+            rho = torch.sqrt((u * u + v * v).clamp_min(1e-30))  # finite gradient at the point
+            cols = [rho, 10 * (h - h.mean(1, keepdim=True)).abs(), 10 * h.abs(), 1 - c, c, rank,
+                    noise[:, None].expand_as(u)]
             if self.tilt:
                 sign = torch.sign((nn_ * n0[:, None]).sum(2))
                 na, nb = ((nn_ * d[:, None]).sum(2) * sign for d in (a, b))
-                rho = cols[0].clamp_min(1e-6)
+                rho = rho.clamp_min(1e-6)
                 cols += [10 * (na * u + nb * v) / rho, 10 * (nb * u - na * v).abs() / rho]
             f = torch.stack(cols, 2)
             e = torch.relu(self.l2(torch.relu(self.l1(f))))
             pooled = e.amax(1)
-            w = nn.functional.softplus(
-                self.l4(torch.relu(self.l3(torch.cat([e, pooled[:, None].expand_as(e)], 2)))))[..., 0]
-            A = torch.stack([torch.ones_like(u), u, v, u * u, u * v, v * v], 2)
+            out = self.l4(torch.relu(self.l3(torch.cat([e, pooled[:, None].expand_as(e)], 2))))
+            w = nn.functional.softplus(out[..., 0])
+            if offsets:
+                h = h + offsets * out[..., 1]
+            terms = [torch.ones_like(u), u, v, u * u, u * v, v * v]
+            if degree == 3:
+                terms += [u * u * u, u * u * v, u * v * v, v * v * v]
+            A = torch.stack(terms, 2)
             atw = A.transpose(1, 2) * w[:, None]
-            lhs = atw @ A + self.ridge * w.sum(1)[:, None, None] * torch.eye(6)
+            lhs = atw @ A + self.ridge * w.sum(1)[:, None, None] * torch.eye(len(terms))
             coef = torch.linalg.solve(lhs, atw @ h[..., None])[..., 0]
             fitted = nn.functional.normalize(n0 - coef[:, 1:2] * a - coef[:, 2:3] * b, dim=1)
             gate = torch.sigmoid(self.g2(torch.relu(self.g1(torch.cat([pooled, noise[:, None]], 1)))))
@@ -156,16 +163,19 @@ def make_fit(torch, hidden: int, ridge: float, tilt: bool = False):
     return LearnedFit()
 
 
-def make_passes(torch, passes: int, hidden: int, ridge: float, tilt: bool = False):
-    """`passes` LearnedFits in a row (an experiment, not in the C++): each after the first takes
-    the one before's normal as the point's normal (its frame and the members' agreement)."""
-    if passes == 1:
-        return make_fit(torch, hidden, ridge, tilt)
+def experiment_fit(torch, a):
+    """The fit that `fit`'s options ask for: the C++'s LearnedFit, or an experiment (make_fit's,
+    or --passes fits in a row, each after the first taking the one before's normal as the
+    point's normal: its frame and the members' agreement)."""
+    def one():
+        return make_fit(torch, a.hidden, a.ridge, a.tilt, a.degree, a.offsets)
+    if a.passes == 1:
+        return one()
 
     class Passes(torch.nn.Module):
         def __init__(self):
             super().__init__()
-            self.fits = torch.nn.ModuleList(make_fit(torch, hidden, ridge, tilt) for _ in range(passes))
+            self.fits = torch.nn.ModuleList(one() for _ in range(a.passes))
 
         def forward(self, q, nn_, n0, noise):
             for f in self.fits:
@@ -191,7 +201,7 @@ def cmd_fit(a) -> int:
                                         for m in meta], dtype=np.float32)[cid])
     perm = torch.randperm(len(n0))
     val, train = perm[:len(n0) // 10], perm[len(n0) // 10:]
-    m = make_passes(torch, a.passes, a.hidden, a.ridge, a.tilt)
+    m = experiment_fit(torch, a)
     opt = torch.optim.Adam(m.parameters(), lr=a.lr)
     sched = torch.optim.lr_scheduler.CosineAnnealingLR(opt, a.epochs)
     best, t0 = float("inf"), time.time()
@@ -216,10 +226,10 @@ def cmd_fit(a) -> int:
     m.load_state_dict(state)
     print(f"best validation RMS {best:.3f} deg, {len(n0)} points")
     if a.write:
-        if a.passes != 1:
-            sys.exit("fit: --passes is an experiment the C++ does not compute: not written")
-        if a.tilt:
-            sys.exit("fit: --tilt is an experiment the C++ does not compute: not written")
+        tried = [f"--{n}" for n, on in (("passes", a.passes != 1), ("tilt", a.tilt),
+                                         ("degree", a.degree != 2), ("offsets", a.offsets)) if on]
+        if tried:
+            sys.exit(f"fit: {' '.join(tried)}: experiments the C++ does not compute: not written")
         if q.shape[1] != MEMBERS:
             sys.exit(f"fit: {a.data} has {q.shape[1]} members per point; the C++ fit takes "
                      f"{MEMBERS} (learned_fit.hpp kFitMembers): not written")
@@ -327,7 +337,12 @@ def main(argv=None) -> int:
     f.add_argument("--tilt", action="store_true",
                    help="experiment: two more member features (make_fit); reports validation only")
     f.add_argument("--passes", type=int, default=1,
-                   help="experiment: fits in a row (make_passes); reports validation only")
+                   help="experiment: fits in a row (experiment_fit); reports validation only")
+    f.add_argument("--degree", type=int, default=2, choices=[2, 3],
+                   help="experiment: the jet's degree (make_fit); reports validation only")
+    f.add_argument("--offsets", type=float, default=0.0,
+                   help="experiment: learned member height offsets of this scale (make_fit); "
+                        "reports validation only")
     f.add_argument("--analytic-weight", type=float, default=8.0,
                    help="weight of a point of the analytic split in the loss (others: 1)")
     r = sub.add_parser("report")
