@@ -61,6 +61,30 @@ TEST(Radial, IsTheNormalOfAThinRodWherePcaIsNot) {
   EXPECT_GT(std::sqrt(pca_sq / counted), 20.0);
 }
 
+TEST(Radial, PcasOwnPlanesGiveTheSameCandidates) {
+  Points pts;
+  Normals truth;
+  rod(pts, truth);
+  for (int k : {7, 200}) {  // the candidate mix's half scale and a rod-wrapping one
+    const IndexMatrix knn = fixtures::knn_table(pts, k);
+    const RadialResult alone = radial_normals(pts, knn, RadialOptions{k});
+    const PcaResult pca = pca_normals(pts, knn, PcaOptions{k, false, true});
+    ASSERT_EQ(pca.radial.normals.rows(), pts.rows());
+    EXPECT_EQ(pca.normals, pca_normals(pts, knn, PcaOptions{k}).normals);  // PCA unchanged
+    // Bit for bit, NaN where NaN: the same covariance, the same arithmetic.
+    for (Eigen::Index i = 0; i < pts.rows(); ++i) {
+      for (int c = 0; c < 3; ++c) {
+        const double x = alone.normals(i, c), y = pca.radial.normals(i, c);
+        EXPECT_TRUE(x == y || (std::isnan(x) && std::isnan(y))) << k << " " << i;
+      }
+      EXPECT_TRUE(alone.offset[i] == pca.radial.offset[i] ||
+                  (std::isnan(alone.offset[i]) && std::isnan(pca.radial.offset[i])));
+      EXPECT_EQ(alone.elongation[i], pca.radial.elongation[i]);
+    }
+  }
+  EXPECT_EQ(pca_normals(pts, fixtures::knn_table(pts, 7), PcaOptions{7}).radial.normals.rows(), 0);
+}
+
 TEST(Radial, NanAtTheCentroidAndZeroElongationOnALine) {
   Points pts(5, 3);
   pts << 0, 0, 0, 1, 0, 0, -1, 0, 0, 0, 1, 0, 0, -1, 0;  // a cross: point 0 is the centroid

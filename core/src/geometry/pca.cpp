@@ -2,6 +2,7 @@
 // variation). Double-precision covariance around the neighbourhood centroid.
 #include "nhnet/geometry/pca.hpp"
 
+#include "geometry/radial_row.hpp"
 #include "nhnet/errors.hpp"
 #include "util/parallel.hpp"
 
@@ -52,14 +53,18 @@ PcaResult pca_normals(const Points& points, const IndexMatrix& knn, const PcaOpt
   r.variation.resize(n);
   r.residual_rms.resize(n);
   if (options.centroids) r.centroid.resize(n, 3);
+  if (options.radial) r.radial = detail::radial_result(n);
   r.k = k;
   detail::Progress progress(run.progress);
   if (run.progress) progress.stage("pca", 0, 1);
   detail::parallel_for(n, run.threads, run.progress ? &progress : nullptr, [&](int64_t i) {
-    Eigen::Vector3d ev, c;
-    const Eigen::Vector3d nrm = fit_plane(points, &knn(i, 0), k, &c, &ev);
+    Eigen::Vector3d ev, c, axis;
+    const Eigen::Vector3d nrm =
+        fit_plane(points, &knn(i, 0), k, &c, &ev, options.radial ? &axis : nullptr);
     r.normals.row(i) = nrm.transpose();
     if (options.centroids) r.centroid.row(i) = c.transpose();
+    if (options.radial)
+      detail::radial_from_plane(points.row(i).transpose(), c, ev, axis, i, r.radial);
     const double s = ev.sum();
     r.variation[i] = (s > 0 && std::isfinite(s)) ? std::max(0.0, ev[0]) / s : 0.0;
     r.residual_rms[i] = std::sqrt(std::max(0.0, ev[0]));

@@ -430,9 +430,10 @@ RadialResult no_radial(Eigen::Index n) {
 }
 
 /// The candidate mix's geometric candidates (jet, half-scale PCA, radial at both scales) from
-/// the shared table `knn`.
-CanonicalSide side_candidates(const Points& pts, const IndexMatrix& knn, const PcaResult& pca,
-                              int k, const RunContext& run) {
+/// the shared table `knn`; the radial ones from PCA's planes (`pca` at k with its radial
+/// candidates, which move out of it; the half scale's with them).
+CanonicalSide side_candidates(const Points& pts, const IndexMatrix& knn, PcaResult& pca, int k,
+                              const RunContext& run) {
   CanonicalSide cs;
   cs.pca = pca.normals;
   const RunContext last = detail::narrow(run, 1, 1);  // two short passes, still cancellable
@@ -443,11 +444,13 @@ CanonicalSide side_candidates(const Points& pts, const IndexMatrix& knn, const P
     return cs;
   }
   cs.jet = jet_normals(pts, knn, pca.normals, JetOptions{k}, last);
-  PcaResult half = pca_normals(pts, knn, PcaOptions{mix_half_k(k)}, last);
+  PcaResult half = pca_normals(pts, knn, PcaOptions{mix_half_k(k), false, true}, last);
   cs.half = std::move(half.normals);
   cs.half_variation = std::move(half.variation);
-  cs.radial = radial_normals(pts, knn, RadialOptions{k}, last);
-  cs.radial_half = radial_normals(pts, knn, RadialOptions{mix_half_k(k)}, last);
+  cs.radial = pca.radial.normals.rows() == pts.rows()
+                  ? std::move(pca.radial)
+                  : radial_normals(pts, knn, RadialOptions{k}, last);
+  cs.radial_half = std::move(half.radial);
   return cs;
 }
 
@@ -552,8 +555,9 @@ EstimateResult estimate_geometry(const Points& points, const EstimateOptions& op
   const int keep = std::max({kdepth, kdesc, kfit});
   if (knn.cols() > keep) knn = knn.leftCols(keep).eval();  // only what the stages use
 
-  const PcaOptions pca_options{res.k_used, options.method == Method::Mfps};  // MFPS: bandwidth
-  const PcaResult pca = pca_normals(pts, knn, pca_options, narrow(run, 0.35, 0.45));
+  // MFPS: the bandwidth's planes; the candidate mix: the radial candidates of the same planes.
+  const PcaOptions pca_options{res.k_used, options.method == Method::Mfps, side != nullptr};
+  PcaResult pca = pca_normals(pts, knn, pca_options, narrow(run, 0.35, 0.45));
   Normals out = pca.normals;
   Eigen::VectorXd weight;
   if (options.method == Method::Mfps) {

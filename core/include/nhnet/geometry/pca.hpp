@@ -4,6 +4,7 @@
 // neighbourhood is from a plane (used to find candidate points near sharp features).
 #pragma once
 
+#include "nhnet/geometry/radial.hpp"
 #include "nhnet/progress.hpp"
 #include "nhnet/types.hpp"
 
@@ -15,6 +16,9 @@ struct PcaOptions {
   /// Keep each neighbourhood's centroid in PcaResult::centroid (24 bytes a point; the residual
   /// bandwidth reuses these planes instead of fitting them again).
   bool centroids = false;
+  /// Also the radial candidates of the same neighbourhoods (geometry/radial.hpp) in
+  /// PcaResult::radial: one covariance for both, as radial_normals at the same k gives them.
+  bool radial = false;
 };
 
 struct PcaResult {
@@ -27,6 +31,8 @@ struct PcaResult {
   /// N x 3 centroids of the neighbourhoods (the planes pass through them); empty unless
   /// PcaOptions::centroids.
   Points centroid;
+  /// The radial candidates of the same neighbourhoods; empty unless PcaOptions::radial.
+  RadialResult radial;
   /// Neighbours per point that were used.
   int k = 0;
 };
