@@ -6,6 +6,7 @@
 
 #include <Eigen/Geometry>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -30,7 +31,7 @@ struct Contributions {
   void collect(const std::vector<Eigen::Vector3d>& d, const Eigen::Vector3d& nf,
                const Eigen::Vector3d& x, const Eigen::Vector3d& y, double inv_h, int m,
                double ball) {
-    const int span = int(2 * ball) + 1;  // cells a ball can reach along one axis
+    const int span = std::min(m, int(2 * ball) + 1);  // cells a ball reaches along one axis
     const size_t most = d.size() * size_t(span * span);
     if (cell.size() < most) {
       cell.resize(most);
