@@ -20,6 +20,7 @@
 #include "util/stats.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstddef>
 #include <limits>
@@ -327,12 +328,17 @@ int fit_depth(const EstimateOptions& options, const detail::GeometrySide* side, 
 
 /// The learned fit's members (canonical rows): kFitMembers spread over the first `depth`
 /// columns of `knn` (util/spread.hpp); empty when depth is 0.
-IndexMatrix fit_members(const IndexMatrix& knn, int depth) {
+IndexMatrix fit_members(const IndexMatrix& knn, int depth, int threads) {
   IndexMatrix members;
   if (depth <= 0) return members;
   members.resize(knn.rows(), kFitMembers);
+  std::array<Eigen::Index, kFitMembers> rank;
   for (int t = 0; t < kFitMembers; ++t)
-    members.col(t) = knn.col(detail::spread_rank(t, kFitMembers, depth));
+    rank[size_t(t)] = detail::spread_rank(t, kFitMembers, depth);
+  // Row by row (the tables are row-major: a column at a time strides the whole table 64 times).
+  detail::parallel_for(knn.rows(), threads, nullptr, [&](int64_t i) {
+    for (int t = 0; t < kFitMembers; ++t) members(i, t) = knn(i, rank[size_t(t)]);
+  });
   return members;
 }
 
@@ -463,7 +469,7 @@ void put_radial(RadialResult& out, Eigen::Index to, const RadialResult& in, Eige
 
 /// The side outputs (canonical rows) back to input rows; duplicates share their first copy's.
 void scatter_side(const CanonicalSide& cs, const IndexMatrix& knn, const detail::Canonical& canon,
-                  detail::GeometrySide& side) {
+                  int threads, detail::GeometrySide& side) {
   const Eigen::Index n = Eigen::Index(canon.copies.size());
   const double nan = std::numeric_limits<double>::quiet_NaN();
   for (Normals* out : {&side.pca, &side.jet, &side.half}) out->setConstant(n, 3, nan);
@@ -479,7 +485,8 @@ void scatter_side(const CanonicalSide& cs, const IndexMatrix& knn, const detail:
   auto put = [](Normals& out, int64_t row, const Eigen::RowVector3d& v) {
     if (v.allFinite()) out.row(row) = v.normalized();  // as scatter()
   };
-  for (Eigen::Index i = 0; i < cs.pca.rows(); ++i) {
+  // Each canonical point writes its own input row: the points in parallel.
+  detail::parallel_for(cs.pca.rows(), threads, nullptr, [&](int64_t i) {
     const int64_t row = canon.rows[size_t(i)];
     put(side.pca, row, cs.pca.row(i));
     put(side.jet, row, cs.jet.row(i));
@@ -491,7 +498,7 @@ void scatter_side(const CanonicalSide& cs, const IndexMatrix& knn, const detail:
     for (Eigen::Index j = 0; j < kn; ++j) side.knn(row, j) = int32_t(canon.rows[size_t(knn(i, j))]);
     for (Eigen::Index j = 0; j < cs.members.cols(); ++j)
       side.members(row, j) = int32_t(canon.rows[size_t(cs.members(i, j))]);
-  }
+  });
   detail::copy_to_duplicates(canon.copies, [&](Eigen::Index i, Eigen::Index first) {
     for (Normals* out : {&side.pca, &side.jet, &side.half}) out->row(i) = out->row(first);
     side.blend_weight[i] = side.blend_weight[first];
@@ -569,8 +576,8 @@ EstimateResult estimate_geometry(const Points& points, const EstimateOptions& op
   if (side) {
     CanonicalSide cs = side_candidates(pts, knn, pca, res.k_used, run);
     cs.weight = std::move(weight);
-    cs.members = fit_members(knn, kfit);
-    scatter_side(cs, knn, canon, *side);
+    cs.members = fit_members(knn, kfit, run.threads);
+    scatter_side(cs, knn, canon, run.threads, *side);
   }
   if (kdesc > 0) {
     table->knn = std::move(knn);
