@@ -25,6 +25,7 @@
 #include <cstddef>
 #include <limits>
 #include <memory>
+#include <stdexcept>
 
 namespace nhnet {
 
@@ -436,10 +437,12 @@ RadialResult no_radial(Eigen::Index n) {
 }
 
 /// The candidate mix's geometric candidates (jet, half-scale PCA, radial at both scales) from
-/// the shared table `knn`; the radial ones from PCA's planes (`pca` at k with its radial
+/// the shared table `knn`; the radial ones from PCA's planes (`pca` at k, asked for its radial
 /// candidates, which move out of it; the half scale's with them).
 CanonicalSide side_candidates(const Points& pts, const IndexMatrix& knn, PcaResult& pca, int k,
                               const RunContext& run) {
+  if (pca.radial.normals.rows() != pts.rows())
+    throw std::logic_error("side_candidates: PCA was run without PcaOptions::radial");
   CanonicalSide cs;
   cs.pca = pca.normals;
   const RunContext last = detail::narrow(run, 1, 1);  // two short passes, still cancellable
@@ -453,9 +456,7 @@ CanonicalSide side_candidates(const Points& pts, const IndexMatrix& knn, PcaResu
   PcaResult half = pca_normals(pts, knn, PcaOptions{mix_half_k(k), false, true}, last);
   cs.half = std::move(half.normals);
   cs.half_variation = std::move(half.variation);
-  cs.radial = pca.radial.normals.rows() == pts.rows()
-                  ? std::move(pca.radial)
-                  : radial_normals(pts, knn, RadialOptions{k}, last);
+  cs.radial = std::move(pca.radial);
   cs.radial_half = std::move(half.radial);
   return cs;
 }
@@ -576,7 +577,10 @@ EstimateResult estimate_geometry(const Points& points, const EstimateOptions& op
   if (side) {
     CanonicalSide cs = side_candidates(pts, knn, pca, res.k_used, run);
     cs.weight = std::move(weight);
+    if (run.progress) top.stage("fit members", 1, 1);
     cs.members = fit_members(knn, kfit, run.threads);
+    if (run.progress) top.stage("side outputs", 1, 1);
+    top.throw_if_cancelled();
     scatter_side(cs, knn, canon, run.threads, *side);
   }
   if (kdesc > 0) {
