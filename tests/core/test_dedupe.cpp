@@ -61,8 +61,7 @@ TEST(Dedupe, KeptPointsFollowAMortonCurveWhateverTheInputOrder) {
   dedupe_exact(a, ra);
   dedupe_exact(b, rb);
   ASSERT_EQ(ra.size(), rb.size());
-  for (size_t i = 0; i < ra.size(); ++i)
-    ASSERT_EQ(a.row(ra[i]), b.row(rb[i])) << "position " << i;
+  for (size_t i = 0; i < ra.size(); ++i) ASSERT_EQ(a.row(ra[i]), b.row(rb[i])) << "position " << i;
   double side = 0;
   int blocks = 0;
   for (size_t i = 0; i + 64 <= ra.size(); i += 64, ++blocks) {

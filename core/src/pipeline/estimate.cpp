@@ -468,23 +468,48 @@ void put_radial(RadialResult& out, Eigen::Index to, const RadialResult& in, Eige
   out.elongation[to] = in.elongation[from];
 }
 
+/// Sizes the side outputs for n input rows, without filling them (scatter_side writes each row).
+void size_side(Eigen::Index n, Eigen::Index kn, bool members, detail::GeometrySide& side) {
+  for (Normals* out : {&side.pca, &side.jet, &side.half}) out->resize(n, 3);
+  side.blend_weight.resize(n);
+  side.half_variation.resize(n);
+  for (RadialResult* r : {&side.radial, &side.radial_half}) {
+    r->normals.resize(n, 3);
+    r->offset.resize(n);
+    r->elongation.resize(n);
+  }
+  side.knn.resize(n, kn);
+  side.members.resize(members ? n : 0, kFitMembers);
+}
+
+/// Input row `row` of the side outputs for a point without a normal: NaN candidates, no blend,
+/// itself as every neighbour and member.
+void blank_side_row(Eigen::Index row, detail::GeometrySide& side) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  for (Normals* out : {&side.pca, &side.jet, &side.half}) out->row(row).setConstant(nan);
+  side.blend_weight[row] = 0;
+  side.half_variation[row] = nan;
+  for (RadialResult* r : {&side.radial, &side.radial_half}) {
+    r->normals.row(row).setConstant(nan);
+    r->offset[row] = r->elongation[row] = nan;
+  }
+  side.knn.row(row).setConstant(int32_t(row));
+  if (side.members.rows() > 0) side.members.row(row).setConstant(int32_t(row));
+}
+
 /// The side outputs (canonical rows) back to input rows; duplicates share their first copy's.
+/// Each row is written once, by the thread of its canonical point (no serial fill first).
 void scatter_side(const CanonicalSide& cs, const IndexMatrix& knn, const detail::Canonical& canon,
                   int threads, detail::GeometrySide& side) {
   const Eigen::Index n = Eigen::Index(canon.copies.size());
-  const double nan = std::numeric_limits<double>::quiet_NaN();
-  for (Normals* out : {&side.pca, &side.jet, &side.half}) out->setConstant(n, 3, nan);
-  side.blend_weight.setZero(n);
-  side.half_variation.setConstant(n, nan);
-  side.radial = side.radial_half = no_radial(n);
   const Eigen::Index kn = std::min<Eigen::Index>(kMixNeighbours, knn.cols());
-  side.knn.resize(n, kn);
-  for (Eigen::Index i = 0; i < n; ++i) side.knn.row(i).setConstant(int32_t(i));
-  side.members.resize(cs.members.rows() > 0 ? n : 0, kFitMembers);
-  for (Eigen::Index i = 0; i < side.members.rows(); ++i)
-    side.members.row(i).setConstant(int32_t(i));
+  size_side(n, kn, cs.members.rows() > 0, side);
+  const bool weighted = cs.weight.size() == cs.pca.rows();
   auto put = [](Normals& out, int64_t row, const Eigen::RowVector3d& v) {
-    if (v.allFinite()) out.row(row) = v.normalized();  // as scatter()
+    if (v.allFinite())
+      out.row(row) = v.normalized();  // as scatter()
+    else
+      out.row(row).setConstant(std::numeric_limits<double>::quiet_NaN());
   };
   // Each canonical point writes its own input row: the points in parallel.
   detail::parallel_for(cs.pca.rows(), threads, nullptr, [&](int64_t i) {
@@ -495,11 +520,13 @@ void scatter_side(const CanonicalSide& cs, const IndexMatrix& knn, const detail:
     side.half_variation[row] = cs.half_variation[i];
     put_radial(side.radial, row, cs.radial, i);
     put_radial(side.radial_half, row, cs.radial_half, i);
-    if (cs.weight.size() == cs.pca.rows()) side.blend_weight[row] = cs.weight[i];
+    side.blend_weight[row] = weighted ? cs.weight[i] : 0.0;
     for (Eigen::Index j = 0; j < kn; ++j) side.knn(row, j) = int32_t(canon.rows[size_t(knn(i, j))]);
     for (Eigen::Index j = 0; j < cs.members.cols(); ++j)
       side.members(row, j) = int32_t(canon.rows[size_t(cs.members(i, j))]);
   });
+  for (Eigen::Index r = 0; r < n; ++r)
+    if (canon.copies[size_t(r)] < 0) blank_side_row(r, side);  // not finite
   detail::copy_to_duplicates(canon.copies, [&](Eigen::Index i, Eigen::Index first) {
     for (Normals* out : {&side.pca, &side.jet, &side.half}) out->row(i) = out->row(first);
     side.blend_weight[i] = side.blend_weight[first];

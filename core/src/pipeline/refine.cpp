@@ -7,6 +7,7 @@
 #include "nhnet/learned/candidate_mix.hpp"
 #include "nhnet/learned/learned_fit.hpp"
 #include "pipeline/estimator.hpp"
+#include "pipeline/row_order.hpp"
 #include "util/parallel.hpp"
 #include "util/shared_setting.hpp"
 
@@ -140,9 +141,11 @@ void fit_stage(const Points& points, const detail::GeometrySide& side, const Run
 }  // namespace
 
 namespace detail {
+namespace {
 
-EstimateResult estimate_nhnet(const Points& points, const EstimateOptions& options,
-                              const TileOverrides& overrides) {
+/// estimate_nhnet on rows in any order (a shuffled cloud: slower, same normals).
+EstimateResult estimate_nhnet_rows(const Points& points, const EstimateOptions& options,
+                                   const TileOverrides& overrides) {
   // Options are checked (check_options: batch >= 1). Load first: a missing or mismatched model
   // fails before the long geometry stage.
   const std::shared_ptr<const NhNetModel> loaded = model_for(options.model, options.run.threads);
@@ -193,6 +196,17 @@ EstimateResult estimate_nhnet(const Points& points, const EstimateOptions& optio
   if (kept > 0)
     res.warnings.push_back(std::to_string(kept) +
                            " points kept their MFPS normal (no descriptor or model output)");
+  return res;
+}
+
+}  // namespace
+
+EstimateResult estimate_nhnet(const Points& points, const EstimateOptions& options,
+                              const TileOverrides& overrides) {
+  // The rows along a Morton curve (row_order.hpp): the same normals, read from nearby memory.
+  const RowOrder order = row_order(points);
+  EstimateResult res = estimate_nhnet_rows(permute_rows(points, order), options, overrides);
+  restore_rows(res, order);
   return res;
 }
 
