@@ -164,10 +164,22 @@ void take_guides(const OrientOptions& options, const std::vector<int64_t>& used,
     guide.row(i) = options.guides->row(Eigen::Index(used[size_t(i)]));
 }
 
+/// The points' indices in the order of their caller rows (pts row i is caller row rows[i], rows
+/// distinct and below n).
+std::vector<int32_t> by_caller_row(const std::vector<int64_t>& rows, Eigen::Index n) {
+  std::vector<int32_t> at(size_t(n), -1);
+  for (size_t i = 0; i < rows.size(); ++i) at[size_t(rows[i])] = int32_t(i);
+  at.erase(std::remove(at.begin(), at.end(), -1), at.end());
+  return at;
+}
+
 /// The symmetric k-NN graph of the first `k` columns of `knn` (an edge when either point is
 /// among the other's k nearest, self included) as adjacency lists, with the mean and median
-/// distance to the nearest other point.
-void link_neighbours(const Points& pts, const IndexMatrix& knn, int k, int threads, Graph& graph) {
+/// distance to the nearest other point. The mean is summed in caller-row order (`rows`, `n`:
+/// build_graph's), so it has the same bits whatever order the points come in, as a distributed
+/// driver's sum of mst_nearest().
+void link_neighbours(const Points& pts, const IndexMatrix& knn, int k, int threads,
+                     const std::vector<int64_t>& rows, Eigen::Index n, Graph& graph) {
   const Eigen::Index m = pts.rows();
   graph.adj.link(knn, k, threads);
   graph.nearest.assign(size_t(m), std::numeric_limits<double>::infinity());
@@ -183,7 +195,7 @@ void link_neighbours(const Points& pts, const IndexMatrix& knn, int k, int threa
   int64_t counted = 0;
   std::vector<double> nearest_all;
   nearest_all.reserve(size_t(m));
-  for (Eigen::Index i = 0; i < m; ++i) {
+  for (const int32_t i : by_caller_row(rows, n)) {
     const double nearest = graph.nearest[size_t(i)];
     if (std::isfinite(nearest)) {
       graph.spacing += nearest;
@@ -225,18 +237,40 @@ double guide_noise(const Points& pts, const Normals& guide, const Adjacency& adj
   return typical[typical.size() / 2];
 }
 
-/// OrientOptions::neighbours when it serves: `every_row` (pts are all the caller's points, in
-/// their order) and at least `depth` columns; else null.
+/// OrientOptions::neighbours when it serves: `every_row` (pts are all the caller's points) and
+/// at least `depth` columns; else null.
 const IndexMatrix* given_table(const OrientOptions& options, bool every_row, int depth) {
   const IndexMatrix* t = options.neighbours.get();
   return t && every_row && t->cols() >= depth ? t : nullptr;
 }
 
+/// The first `depth` columns of a table of the caller's rows for pts taken in the order `rows`
+/// (pts row i is caller row rows[i], every caller row once): its rows and entries renumbered.
+IndexMatrix renumbered(const IndexMatrix& table, const std::vector<int64_t>& rows, int depth,
+                       int threads) {
+  std::vector<int32_t> slot(rows.size());
+  for (size_t i = 0; i < rows.size(); ++i) slot[size_t(rows[i])] = int32_t(i);
+  IndexMatrix out(Eigen::Index(rows.size()), depth);
+  detail::parallel_for(int64_t(rows.size()), threads, nullptr, [&](int64_t i) {
+    for (int c = 0; c < depth; ++c) out(i, c) = slot[size_t(table(rows[size_t(i)], c))];
+  });
+  return out;
+}
+
+/// Whether rows is 0, 1, 2, ...
+bool in_order(const std::vector<int64_t>& rows) {
+  for (size_t i = 0; i < rows.size(); ++i)
+    if (rows[i] != int64_t(i)) return false;
+  return true;
+}
+
 /// The graph over pts and its scales; smooths `guide` on the way (one neighbour search for
 /// both: the graph takes the first k columns of the guide's guide_k-deep table), unless the
 /// guides were given (OrientOptions::guides: the table keeps its depth, the same graph). The
-/// table is OrientOptions::neighbours where given_table() takes it.
-Graph build_graph(const Points& pts, Normals& guide, const OrientOptions& options, bool every_row) {
+/// table is OrientOptions::neighbours where given_table() takes it (`rows`: the caller's row of
+/// each of pts, `n` the caller's point count).
+Graph build_graph(const Points& pts, Normals& guide, const OrientOptions& options,
+                  const std::vector<int64_t>& rows, Eigen::Index n) {
   const Eigen::Index m = pts.rows();
   Graph graph;
   if (m <= 1) {
@@ -250,10 +284,13 @@ Graph build_graph(const Points& pts, Normals& guide, const OrientOptions& option
   const int guide_k = int(std::min<Eigen::Index>(options.guide_k, m));
   const int depth = smooth ? std::max(k, guide_k) : k;
   IndexMatrix searched;
-  const IndexMatrix* given = given_table(options, every_row, depth);
-  if (!given) Neighbors(pts).knn_all(depth, searched, nullptr, sub);
-  const IndexMatrix& knn = given ? *given : searched;
-  link_neighbours(pts, knn, k, sub.threads, graph);
+  const IndexMatrix* given = given_table(options, m == n, depth);
+  if (!given)
+    Neighbors(pts).knn_all(depth, searched, nullptr, sub);
+  else if (!in_order(rows))
+    searched = renumbered(*given, rows, depth, sub.threads);
+  const IndexMatrix& knn = given && in_order(rows) ? *given : searched;
+  link_neighbours(pts, knn, k, sub.threads, rows, n, graph);
   if (smooth && !options.guides) smooth_guide(pts, knn, guide_k, sub, guide);
   graph.noise = guide_noise(pts, guide, graph.adj, sub.threads);
   return graph;
@@ -574,7 +611,7 @@ std::vector<uint8_t> orient_mst(const Points& points, Normals& normals,
   take_guides(options, used, guide);
 
   if (options.run.progress) progress.stage("orient: neighbours", 0, 0.3);
-  const Graph graph = build_graph(pts, guide, options, m == points.rows());
+  const Graph graph = build_graph(pts, guide, options, used, points.rows());
   progress.throw_if_cancelled();
 
   if (options.run.progress) progress.stage("orient: mst", 0.3, 1.0);
@@ -599,8 +636,9 @@ void orient_mst_deduplicated(const Points& points, Normals& normals,
                              const std::vector<int64_t>& used, const OrientOptions& options,
                              OrientResult& res) {
   std::vector<int64_t> firsts = used;
+  // In the dedupe's Morton order: the graph and the tree read nearby memory (Prim's ties and the
+  // equal heights of grow_from_tops break by this order).
   const std::vector<int64_t> first_of = detail::dedupe_exact(points, firsts);
-  std::sort(firsts.begin(), firsts.end());  // input order, as without duplicates
   const std::vector<uint8_t> oriented = orient_mst(points, normals, firsts, options, res);
   if (firsts.size() == used.size()) return;
   std::vector<int64_t> slot(size_t(points.rows()), -1);  // row -> index in firsts
@@ -751,12 +789,12 @@ TileGraph tile_graph(const Points& points, const Normals& normals, int64_t own,
   TileGraph t;
   t.rows = valid_rows(points, normals, ignored);
   detail::dedupe_exact(points, t.rows);
-  std::sort(t.rows.begin(), t.rows.end());  // input order, as orient_mst_deduplicated
+  std::sort(t.rows.begin(), t.rows.end());  // input order: the outputs are in ascending rows
   t.pts.resize(Eigen::Index(t.rows.size()), 3);
   t.guide.resize(Eigen::Index(t.rows.size()), 3);
   gather_rows(points, normals, t.rows, t.pts, t.guide);
   take_guides(options, t.rows, t.guide);
-  t.graph = build_graph(t.pts, t.guide, options, Eigen::Index(t.rows.size()) == points.rows());
+  t.graph = build_graph(t.pts, t.guide, options, t.rows, points.rows());
   return t;
 }
 
