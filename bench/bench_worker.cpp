@@ -73,10 +73,11 @@ struct Output {
 using Runner = std::function<Output(const nhnet::Points&, const Args&)>;
 
 Output run_nhnet(const nhnet::Points& p, const Args& a, nhnet::Method m, bool auto_k,
-                 bool learned_fit = true) {
+                 bool learned_fit = true, const std::string& precision = "float32") {
   nhnet::EstimateOptions o;
   o.method = m;
   o.model.learned_fit = learned_fit;
+  o.model.precision = precision;
   o.k = auto_k ? 0 : a.k;
   o.mfps.scales = auto_k ? std::vector<int>{} : a.scales;
   o.run.threads = a.threads;
@@ -100,6 +101,11 @@ const std::map<std::string, Runner>& methods() {
       // The same without its last step, the learned fit (--learned-fit off): bench/front.py.
       {"nhnet-mix",
        [](auto& p, auto& a) { return run_nhnet(p, a, nhnet::Method::NhNet, true, false); }},
+      // The default with the network in bfloat16 (--precision bfloat16).
+      {"nhnet-bf16",
+       [](auto& p, auto& a) {
+         return run_nhnet(p, a, nhnet::Method::NhNet, true, true, "bfloat16");
+       }},
       {"pcl-pca",
        [](auto& p, auto& a) {
          return Output{nhnet_bench::pcl_pca_normals(p, a.k, a.threads), a.k, {}};

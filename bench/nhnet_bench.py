@@ -46,6 +46,7 @@ METHODS: dict[str, tuple[str, bool, str]] = {
     "mfps": ("nhnet mfps (paper scales)", True, "worker"),
     "nhnet": ("nhnet NH-Net (shipped model)", False, "worker"),
     "nhnet-mix": ("nhnet NH-Net without the learned fit", False, "worker"),
+    "nhnet-bf16": ("nhnet NH-Net, network in bfloat16", False, "worker"),
     "pca-auto": ("nhnet pca (auto k)", False, "worker"),
     "pca": ("nhnet pca", True, "worker"),
     "pcl-pca": ("PCL NormalEstimationOMP", True, "worker"),

@@ -57,8 +57,8 @@ void check_output_dirs(const EstimateArgs& a) {
 void load_model(const EstimateArgs& a, Setup& st) {
   if (st.opt.method != nhnet::Method::NhNet) return;
   st.model_path = a.model.empty() ? nhnet::default_model_path() : a.model;
-  auto model =
-      std::make_shared<const nhnet::NhNetModel>(st.model_path, a.device, st.opt.run.threads);
+  auto model = std::make_shared<const nhnet::NhNetModel>(st.model_path, a.device,
+                                                         st.opt.run.threads, a.precision);
   st.device = model->device();
   st.opt.model.loaded = std::move(model);
   if (!a.report.empty()) st.model_sha256 = sha256_file(st.model_path);

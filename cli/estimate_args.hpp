@@ -32,6 +32,8 @@ struct EstimateArgs {
   std::string seed = std::to_string(nhnet::EstimateOptions{}.mfps.seed);
   std::string model;                                           ///< empty = the shipped model
   std::string device = nhnet::EstimateOptions{}.model.device;  ///< NH-Net device
+  /// NH-Net's arithmetic: float32 | bfloat16
+  std::string precision = nhnet::EstimateOptions{}.model.precision;
   /// NH-Net's candidate mix: on | off
   std::string candidate_mix = nhnet::EstimateOptions{}.model.candidate_mix ? "on" : "off";
   /// NH-Net's learned weighted jet fit after the mix: on | off

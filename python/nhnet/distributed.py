@@ -66,6 +66,9 @@ def _parse(argv):
     e.add_argument("--seed", type=int, default=1, help="seed of MFPS's random planes (default 1)")
     e.add_argument("--model", help="NH-Net model file (--method nhnet)")
     e.add_argument("--device", default="auto", help="NH-Net device: auto, cpu, cuda")
+    e.add_argument("--precision", choices=["float32", "bfloat16"],
+                   help="NH-Net arithmetic, as nhnet-cli --precision (default: the core's, "
+                   "float32)")
     e.add_argument("--orient", nargs="+", default=["auto"], metavar="MODE",
                    help="auto (default, as nhnet-cli: from the input's header), keep, up, "
                    "mst[:K], viewpoint X Y Z, sensors or none")
@@ -139,7 +142,7 @@ class Job:
         self.options = {"method": method, "k": args.k, "seed": args.seed,
                         "scales": [int(s) for s in args.scales.split(",")] if args.scales else None,
                         "threads": args.threads, "halo": args.halo, "model": args.model,
-                        "device": args.device}
+                        "device": args.device, "precision": args.precision}
 
     def _wait(self, futures, what, gather=True):
         """Waits for `futures` with a progress bar; their results when `gather` (small ones

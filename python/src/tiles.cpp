@@ -96,7 +96,7 @@ const auto kDecisionFields = std::make_tuple(
     field("variation_threshold", &TileDecisions::variation_threshold));
 
 /// The estimator's options from the job's (a dict: method, k, scales, seed, threads, halo, model,
-/// device).
+/// device, and optionally precision: None or absent = the core's).
 EstimateOptions options_from_dict(const py::dict& d) {
   EstimateOptions o;
   o.method = method_from_string(d["method"].cast<std::string>());
@@ -107,6 +107,8 @@ EstimateOptions options_from_dict(const py::dict& d) {
   o.tiles.halo = d["halo"].cast<double>();
   if (!d["model"].is_none()) o.model.path = d["model"].cast<std::string>();
   o.model.device = d["device"].cast<std::string>();
+  if (d.contains("precision") && !d["precision"].is_none())
+    o.model.precision = d["precision"].cast<std::string>();
   return o;
 }
 

@@ -16,11 +16,14 @@ namespace {
 bool nhnet_available() { return false; }
 std::string default_model_path() { return {}; }
 struct NhNetModel::Impl {};
-NhNetModel::NhNetModel(const std::string&, const std::string&, int) { unavailable(); }
+NhNetModel::NhNetModel(const std::string&, const std::string&, int, const std::string&) {
+  unavailable();
+}
 NhNetModel::~NhNetModel() = default;
 NhNetModel::NhNetModel(NhNetModel&&) noexcept = default;
 NhNetModel& NhNetModel::operator=(NhNetModel&&) noexcept = default;
 const std::string& NhNetModel::device() const { unavailable(); }
+const std::string& NhNetModel::precision() const { unavailable(); }
 const std::string& NhNetModel::metadata() const { unavailable(); }
 int NhNetModel::descriptor_version() const { unavailable(); }
 Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor> NhNetModel::infer(

@@ -132,14 +132,60 @@ struct NhNetModel::Impl {
   torch::jit::script::Module module;
   torch::Device dev{torch::kCPU};
   std::string device;
+  std::string precision;
+  torch::ScalarType dtype = torch::kFloat32;  // of the weights and the descriptors fed in
   std::string meta;
   int descriptor_version = kDescriptorVersion;
 };
 
-NhNetModel::NhNetModel(const std::string& path, const std::string& device, int threads)
+namespace {
+
+/// Frozen (weights inlined as constants, batch norms folded into the layers before them) and,
+/// on the CPU, optimised for inference (oneDNN convolutions): 3.3x the points per second of
+/// the scripted module on 2 cores, outputs equal to 1e-6
+/// (docs/design/decisions.md#nh-net-inference-frozen-and-optimised-on-load). A model the passes
+/// cannot handle runs as it was loaded.
+void freeze_and_optimise(torch::jit::Module& module, bool cpu) {
+  try {
+    torch::jit::Module frozen = torch::jit::freeze(module);
+    if (cpu) frozen = torch::jit::optimize_for_inference(frozen);
+    module = frozen;
+  } catch (const std::exception&) {
+  }
+}
+
+/// A test forward pass on two zero descriptors: a model that loads but is not a B x D -> B x 3
+/// network (or breaks on this device or in this precision) is refused here, before any input
+/// is read.
+void check_forward(torch::jit::Module& module, torch::Device dev, torch::ScalarType dtype,
+                   const std::string& path) {
+  const int64_t dsize = descriptor_size(DescriptorOptions{});
+  try {
+    torch::InferenceMode guard;
+    const torch::Tensor y = module.forward({torch::zeros({2, dsize}, dtype).to(dev)}).toTensor();
+    if (y.dim() != 2 || y.size(0) != 2 || y.size(1) != 3)
+      throw ModelError("model " + path + " maps 2 x " + std::to_string(dsize) +
+                       " descriptors to a tensor of shape " + c10::str(y.sizes()) +
+                       ", not 2 x 3; export it with nhnet-export");
+  } catch (const ModelError&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw ModelError("model " + path + " fails on " + std::to_string(dsize) +
+                     "-value descriptors: " + torch_message(e));
+  }
+}
+
+}  // namespace
+
+NhNetModel::NhNetModel(const std::string& path, const std::string& device, int threads,
+                       const std::string& precision)
     : impl_(std::make_unique<Impl>()) {
   if (device != "auto" && device != "cpu" && device != "cuda")
     throw InvalidOptions("device must be auto, cpu or cuda, got '" + device + "'");
+  if (precision != "float32" && precision != "bfloat16")
+    throw InvalidOptions("precision must be float32 or bfloat16, got '" + precision + "'");
+  impl_->precision = precision;
+  impl_->dtype = precision == "bfloat16" ? torch::kBFloat16 : torch::kFloat32;
   if (threads < 0) throw InvalidOptions("threads must be >= 0");
   const bool cuda = torch::cuda::is_available();
   if (device == "cuda" && !cuda)
@@ -164,42 +210,17 @@ NhNetModel::NhNetModel(const std::string& path, const std::string& device, int t
   impl_->meta = extra["nhnet.json"];
   impl_->descriptor_version = check_metadata(impl_->meta, path);
   impl_->module.eval();
+  if (impl_->dtype != torch::kFloat32) impl_->module.to(impl_->dtype);
   at::set_num_threads(threads > 0 ? threads : std::max(1, omp_get_max_threads()));
-  // Frozen (weights inlined as constants, batch norms folded into the layers before them) and,
-  // on the CPU, optimised for inference (oneDNN convolutions): 3.3x the points per second of
-  // the scripted module on 2 cores, outputs equal to 1e-6
-  // (docs/design/decisions.md#nh-net-inference-frozen-and-optimised-on-load). A model the passes
-  // cannot handle runs as it was loaded.
-  try {
-    torch::jit::Module frozen = torch::jit::freeze(impl_->module);
-    if (impl_->device == "cpu") frozen = torch::jit::optimize_for_inference(frozen);
-    impl_->module = frozen;
-  } catch (const std::exception&) {
-  }
-  // A test forward pass on two zero descriptors: a model that loads but is not a B x D -> B x 3
-  // network (or breaks on this device) is refused here, before any input is read.
-  const int64_t dsize = descriptor_size(DescriptorOptions{});
-  try {
-    torch::InferenceMode guard;
-    const torch::Tensor y =
-        impl_->module.forward({torch::zeros({2, dsize}, torch::kFloat32).to(impl_->dev)})
-            .toTensor();
-    if (y.dim() != 2 || y.size(0) != 2 || y.size(1) != 3)
-      throw ModelError("model " + path + " maps 2 x " + std::to_string(dsize) +
-                       " descriptors to a tensor of shape " + c10::str(y.sizes()) +
-                       ", not 2 x 3; export it with nhnet-export");
-  } catch (const ModelError&) {
-    throw;
-  } catch (const std::exception& e) {
-    throw ModelError("model " + path + " fails on " + std::to_string(dsize) +
-                     "-value descriptors: " + torch_message(e));
-  }
+  freeze_and_optimise(impl_->module, impl_->device == "cpu");
+  check_forward(impl_->module, impl_->dev, impl_->dtype, path);
 }
 
 NhNetModel::~NhNetModel() = default;
 NhNetModel::NhNetModel(NhNetModel&&) noexcept = default;
 NhNetModel& NhNetModel::operator=(NhNetModel&&) noexcept = default;
 const std::string& NhNetModel::device() const { return impl_->device; }
+const std::string& NhNetModel::precision() const { return impl_->precision; }
 const std::string& NhNetModel::metadata() const { return impl_->meta; }
 int NhNetModel::descriptor_version() const { return impl_->descriptor_version; }
 
@@ -223,9 +244,10 @@ Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor> NhNetModel::infer(
     for (size_t r = b; r < e; ++r)
       std::copy(features.row(rows[r]).data(), features.row(rows[r]).data() + d,
                 buf.data() + (r - b) * size_t(d));
-    torch::Tensor x =
-        torch::from_blob(buf.data(), {int64_t(e - b), int64_t(d)}, torch::kFloat32).to(impl_->dev);
-    torch::Tensor y = impl_->module.forward({x}).toTensor().to(torch::kCPU).contiguous();
+    torch::Tensor x = torch::from_blob(buf.data(), {int64_t(e - b), int64_t(d)}, torch::kFloat32)
+                          .to(impl_->dev, impl_->dtype);
+    torch::Tensor y =
+        impl_->module.forward({x}).toTensor().to(torch::kCPU, torch::kFloat32).contiguous();
     if (y.dim() != 2 || y.size(0) != int64_t(e - b) || y.size(1) != 3)
       throw ModelError("the NH-Net model returned a tensor of the wrong shape (expected B x 3)");
     const float* p = y.data_ptr<float>();

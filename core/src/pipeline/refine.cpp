@@ -23,7 +23,8 @@ namespace nhnet {
 std::shared_ptr<const NhNetModel> model_for(const ModelOptions& options, int threads) {
   if (options.loaded) return options.loaded;
   return std::make_shared<const NhNetModel>(
-      options.path.empty() ? default_model_path() : options.path, options.device, threads);
+      options.path.empty() ? default_model_path() : options.path, options.device, threads,
+      options.precision);
 }
 
 namespace {

@@ -34,6 +34,10 @@ struct ModelOptions {
   std::string path;
   /// Device: "auto" (CUDA if available, else CPU), "cpu" or "cuda".
   std::string device = "auto";
+  /// The network's arithmetic: "float32", or "bfloat16" (weights and activations; on a CPU
+  /// with AVX512-BF16 or AMX ~4x the network's speed, elsewhere slower than float32; normals
+  /// move by about a tenth of a degree: docs/design/decisions.md, "NH-Net in bfloat16").
+  std::string precision = "float32";
   /// An already loaded model; when set, `path` and `device` are not used. Lets a front end check
   /// the model before reading any input and reuse it across files.
   std::shared_ptr<const NhNetModel> loaded;
@@ -64,13 +68,17 @@ class NhNetModel {
  public:
   /// `device`: "auto" (CUDA when the linked libtorch has it and a GPU is visible, else CPU),
   /// "cpu" or "cuda" (InputError if unavailable). `threads`: intra-op threads, 0 = all cores.
-  NhNetModel(const std::string& path, const std::string& device = "auto", int threads = 0);
+  /// `precision`: "float32" or "bfloat16" (ModelOptions::precision).
+  NhNetModel(const std::string& path, const std::string& device = "auto", int threads = 0,
+             const std::string& precision = "float32");
   ~NhNetModel();
   NhNetModel(NhNetModel&&) noexcept;
   NhNetModel& operator=(NhNetModel&&) noexcept;
 
   /// "cpu" or "cuda": the device in use.
   const std::string& device() const;
+  /// "float32" or "bfloat16": the arithmetic the network runs in.
+  const std::string& precision() const;
   /// The metadata JSON stored in the model.
   const std::string& metadata() const;
   /// The descriptor version the model was trained on (descriptor_options gives its options).
@@ -88,7 +96,7 @@ class NhNetModel {
 };
 
 /// options.loaded, or else the model options.path (empty = default_model_path()) loaded for
-/// options.device with `threads` intra-op threads (0 = all cores).
+/// options.device and options.precision with `threads` intra-op threads (0 = all cores).
 std::shared_ptr<const NhNetModel> model_for(const ModelOptions& options, int threads = 0);
 
 }  // namespace nhnet
