@@ -143,15 +143,13 @@ namespace {
 /// Frozen (weights inlined as constants, batch norms folded into the layers before them) and,
 /// on the CPU, optimised for inference (oneDNN convolutions): 3.3x the points per second of
 /// the scripted module on 2 cores, outputs equal to 1e-6
-/// (docs/design/decisions.md#nh-net-inference-frozen-and-optimised-on-load). A model the passes
-/// cannot handle runs as it was loaded.
-void freeze_and_optimise(torch::jit::Module& module, bool cpu) {
-  try {
-    torch::jit::Module frozen = torch::jit::freeze(module);
-    if (cpu) frozen = torch::jit::optimize_for_inference(frozen);
-    module = frozen;
-  } catch (const std::exception&) {
-  }
+/// (docs/design/decisions.md#nh-net-inference-frozen-and-optimised-on-load). `steps` 2 = both,
+/// 1 = frozen only, 0 = as loaded. Throws what the passes throw.
+torch::jit::Module prepared(const torch::jit::Module& loaded, bool cpu, int steps) {
+  torch::jit::Module m = loaded.clone();
+  if (steps >= 1) m = torch::jit::freeze(m);
+  if (steps >= 2 && cpu) m = torch::jit::optimize_for_inference(m);
+  return m;
 }
 
 /// A test forward pass on two zero descriptors: a model that loads but is not a B x D -> B x 3
@@ -212,8 +210,19 @@ NhNetModel::NhNetModel(const std::string& path, const std::string& device, int t
   impl_->module.eval();
   if (impl_->dtype != torch::kFloat32) impl_->module.to(impl_->dtype);
   at::set_num_threads(threads > 0 ? threads : std::max(1, omp_get_max_threads()));
-  freeze_and_optimise(impl_->module, impl_->device == "cpu");
-  check_forward(impl_->module, impl_->dev, impl_->dtype, path);
+  // The most prepared module that runs: a model the passes cannot handle runs as it was loaded,
+  // and oneDNN's optimised convolutions refuse bfloat16 on CPUs without AVX-512, where the
+  // frozen module runs on ATen's own kernels (slower). The last failure is the error.
+  const torch::jit::Module loaded = impl_->module;
+  for (int steps = 2; steps >= 0; --steps) {
+    try {
+      impl_->module = prepared(loaded, impl_->device == "cpu", steps);
+      check_forward(impl_->module, impl_->dev, impl_->dtype, path);
+      return;
+    } catch (const std::exception&) {
+      if (steps == 0) throw;
+    }
+  }
 }
 
 NhNetModel::~NhNetModel() = default;
