@@ -164,22 +164,21 @@ void take_guides(const OrientOptions& options, const std::vector<int64_t>& used,
     guide.row(i) = options.guides->row(Eigen::Index(used[size_t(i)]));
 }
 
-/// The points' indices in the order of their caller rows (pts row i is caller row rows[i], rows
-/// distinct and below n).
-std::vector<int32_t> by_caller_row(const std::vector<int64_t>& rows, Eigen::Index n) {
+/// For each of the caller's n rows, the index of its point in pts (pts row i is caller row
+/// rows[i], rows distinct and below n), -1 for a row not among them.
+std::vector<int32_t> point_of_row(const std::vector<int64_t>& rows, Eigen::Index n) {
   std::vector<int32_t> at(size_t(n), -1);
   for (size_t i = 0; i < rows.size(); ++i) at[size_t(rows[i])] = int32_t(i);
-  at.erase(std::remove(at.begin(), at.end(), -1), at.end());
   return at;
 }
 
 /// The symmetric k-NN graph of the first `k` columns of `knn` (an edge when either point is
 /// among the other's k nearest, self included) as adjacency lists, with the mean and median
-/// distance to the nearest other point. The mean is summed in caller-row order (`rows`, `n`:
-/// build_graph's), so it has the same bits whatever order the points come in, as a distributed
-/// driver's sum of mst_nearest().
+/// distance to the nearest other point. The mean is summed in caller-row order (`at`:
+/// point_of_row of build_graph's rows), so it has the same bits whatever order the points come
+/// in, as a distributed driver's sum of mst_nearest().
 void link_neighbours(const Points& pts, const IndexMatrix& knn, int k, int threads,
-                     const std::vector<int64_t>& rows, Eigen::Index n, Graph& graph) {
+                     const std::vector<int32_t>& at, Graph& graph) {
   const Eigen::Index m = pts.rows();
   graph.adj.link(knn, k, threads);
   graph.nearest.assign(size_t(m), std::numeric_limits<double>::infinity());
@@ -195,7 +194,8 @@ void link_neighbours(const Points& pts, const IndexMatrix& knn, int k, int threa
   int64_t counted = 0;
   std::vector<double> nearest_all;
   nearest_all.reserve(size_t(m));
-  for (const int32_t i : by_caller_row(rows, n)) {
+  for (const int32_t i : at) {
+    if (i < 0) continue;  // a caller row not among pts
     const double nearest = graph.nearest[size_t(i)];
     if (std::isfinite(nearest)) {
       graph.spacing += nearest;
@@ -245,14 +245,13 @@ const IndexMatrix* given_table(const OrientOptions& options, bool every_row, int
 }
 
 /// The first `depth` columns of a table of the caller's rows for pts taken in the order `rows`
-/// (pts row i is caller row rows[i], every caller row once): its rows and entries renumbered.
-IndexMatrix renumbered(const IndexMatrix& table, const std::vector<int64_t>& rows, int depth,
-                       int threads) {
-  std::vector<int32_t> slot(rows.size());
-  for (size_t i = 0; i < rows.size(); ++i) slot[size_t(rows[i])] = int32_t(i);
+/// (pts row i is caller row rows[i], every caller row once; `at` its point_of_row): its rows
+/// and entries renumbered.
+IndexMatrix renumbered(const IndexMatrix& table, const std::vector<int64_t>& rows,
+                       const std::vector<int32_t>& at, int depth, int threads) {
   IndexMatrix out(Eigen::Index(rows.size()), depth);
   detail::parallel_for(int64_t(rows.size()), threads, nullptr, [&](int64_t i) {
-    for (int c = 0; c < depth; ++c) out(i, c) = slot[size_t(table(rows[size_t(i)], c))];
+    for (int c = 0; c < depth; ++c) out(i, c) = at[size_t(table(rows[size_t(i)], c))];
   });
   return out;
 }
@@ -283,14 +282,16 @@ Graph build_graph(const Points& pts, Normals& guide, const OrientOptions& option
   const int k = int(std::min<Eigen::Index>(options.k, m));
   const int guide_k = int(std::min<Eigen::Index>(options.guide_k, m));
   const int depth = smooth ? std::max(k, guide_k) : k;
+  const std::vector<int32_t> at = point_of_row(rows, n);
   IndexMatrix searched;
   const IndexMatrix* given = given_table(options, m == n, depth);
+  const bool as_given = given && in_order(rows);
   if (!given)
     Neighbors(pts).knn_all(depth, searched, nullptr, sub);
-  else if (!in_order(rows))
-    searched = renumbered(*given, rows, depth, sub.threads);
-  const IndexMatrix& knn = given && in_order(rows) ? *given : searched;
-  link_neighbours(pts, knn, k, sub.threads, rows, n, graph);
+  else if (!as_given)
+    searched = renumbered(*given, rows, at, depth, sub.threads);
+  const IndexMatrix& knn = as_given ? *given : searched;
+  link_neighbours(pts, knn, k, sub.threads, at, graph);
   if (smooth && !options.guides) smooth_guide(pts, knn, guide_k, sub, guide);
   graph.noise = guide_noise(pts, guide, graph.adj, sub.threads);
   return graph;
@@ -641,8 +642,7 @@ void orient_mst_deduplicated(const Points& points, Normals& normals,
   const std::vector<int64_t> first_of = detail::dedupe_exact(points, firsts);
   const std::vector<uint8_t> oriented = orient_mst(points, normals, firsts, options, res);
   if (firsts.size() == used.size()) return;
-  std::vector<int64_t> slot(size_t(points.rows()), -1);  // row -> index in firsts
-  for (size_t i = 0; i < firsts.size(); ++i) slot[size_t(firsts[i])] = int64_t(i);
+  const std::vector<int32_t> slot = point_of_row(firsts, points.rows());  // row -> in firsts
   for (const int64_t row : used) {
     const int64_t first = first_of[size_t(row)];
     if (first == row) continue;
