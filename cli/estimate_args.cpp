@@ -50,7 +50,7 @@ void add_method_options(CLI::App* sub, EstimateArgs& a) {
                   "NH-Net device: auto | cpu | cuda " + default_note(core.model.device))
       ->type_name("DEV");
   sub->add_option("--precision", a.precision,
-                  "NH-Net arithmetic: float32 | bfloat16 (about 4x the network's speed on CPUs "
+                  "NH-Net arithmetic: float32 | bfloat16 (2-3x the network's speed on CPUs "
                   "with AVX512-BF16 or AMX, slower on others; normals move by ~0.1 degree) " +
                       default_note(core.model.precision))
       ->type_name("P");

@@ -1,7 +1,7 @@
 """Where the NH-Net network's CPU time goes, layer by layer (issue 23).
 
     /usr/bin/python3 tools/net_profile.py [--model models/nhnet.pt] [--batch 4096]
-        [--threads 2] [--reps 3]
+        [--threads 2] [--reps 3] [--precision float32|bfloat16]
 
 Loads the model as the core does (model_torch.cpp: frozen, then optimize_for_inference), runs
 `reps` timed batches of random descriptors after two warm-up batches, and prints the points per
@@ -25,9 +25,13 @@ def child(args) -> None:
     import torch
 
     torch.set_num_threads(args.threads)
-    m = torch.jit.optimize_for_inference(torch.jit.freeze(torch.jit.load(args.model).eval()))
+    dtype = torch.bfloat16 if args.precision == "bfloat16" else torch.float32
+    # As model_torch.cpp: the weights cast before freezing, the descriptors fed in that type.
+    loaded = torch.jit.load(args.model).eval().to(dtype)
+    m = torch.jit.optimize_for_inference(torch.jit.freeze(loaded))
     x = torch.randn(args.batch, 468)
     x[:, 27:] *= 0.3
+    x = x.to(dtype)
     with torch.inference_mode():
         for _ in range(2):
             m(x)
@@ -51,6 +55,8 @@ def main() -> None:
     ap.add_argument("--batch", type=int, default=4096)
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--reps", type=int, default=3)
+    ap.add_argument("--precision", choices=["float32", "bfloat16"], default="float32",
+                    help="the network's arithmetic, as nhnet-cli --precision")
     ap.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.child:
@@ -59,7 +65,8 @@ def main() -> None:
     env = dict(os.environ, ONEDNN_VERBOSE="1", DNNL_VERBOSE="1")
     out = subprocess.run([sys.executable, __file__, "--child", "--model", args.model, "--batch",
                           str(args.batch), "--threads", str(args.threads), "--reps",
-                          str(args.reps)], env=env, capture_output=True, text=True, check=True)
+                          str(args.reps), "--precision", args.precision], env=env,
+                         capture_output=True, text=True, check=True)
     timed, pps, gflops = False, "?", "?"
     ms: dict[tuple[str, str, str], float] = collections.OrderedDict()
     for line in out.stdout.splitlines():
@@ -75,7 +82,8 @@ def main() -> None:
             key = (f[3], f[4], f[-2])
             ms[key] = ms.get(key, 0.0) + float(f[-1])
     total = sum(ms.values()) or 1.0
-    print(f"{pps} points/s ({args.threads} threads, batch {args.batch}, {args.reps} batches)")
+    print(f"{pps} points/s ({args.threads} threads, batch {args.batch}, {args.reps} batches, "
+          f"{args.precision})")
     print(f"matrix products through BLAS (libblas.so.3): {gflops} GFLOP/s (4096x441 by 441x288)")
     print(f"oneDNN primitives: {total:.0f} ms in all\n")
     print("| primitive | implementation | shape | ms | share |")

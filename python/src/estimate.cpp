@@ -115,7 +115,7 @@ device : {'auto', 'cpu', 'cuda'}
     NH-Net only (nhnet-cli --device): where the network runs; 'auto' (default) takes a GPU
     when libtorch sees one.
 precision : {'float32', 'bfloat16'}
-    NH-Net only (nhnet-cli --precision): the network's arithmetic; 'bfloat16' runs it about 4x
+    NH-Net only (nhnet-cli --precision): the network's arithmetic; 'bfloat16' runs it 2-3x
     faster on CPUs with AVX512-BF16 or AMX (slower on others), normals moving by ~0.1 degree.
 learned_fit : bool
     NH-Net only (nhnet-cli --learned-fit): refit each normal of the candidate mix by the learned

@@ -35,7 +35,7 @@ struct ModelOptions {
   /// Device: "auto" (CUDA if available, else CPU), "cpu" or "cuda".
   std::string device = "auto";
   /// The network's arithmetic: "float32", or "bfloat16" (weights and activations; on a CPU
-  /// with AVX512-BF16 or AMX ~4x the network's speed, elsewhere slower than float32; normals
+  /// with AVX512-BF16 or AMX 2-3x the network's speed, elsewhere slower than float32; normals
   /// move by about a tenth of a degree: docs/design/decisions.md, "NH-Net in bfloat16").
   std::string precision = "float32";
   /// An already loaded model; when set, `path` and `device` are not used. Lets a front end check
