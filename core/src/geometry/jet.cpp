@@ -34,21 +34,16 @@ Eigen::Vector3d jet_row(const Points& points, const int32_t* idx, int k, const E
   }
   const double s = std::sqrt(s2 / k);
   if (!(s > 0)) return nan;
-  Eigen::Matrix<double, 6, 6> ata = Eigen::Matrix<double, 6, 6>::Zero();
-  Eigen::Matrix<double, 6, 1> atb = Eigen::Matrix<double, 6, 1>::Zero();
+  detail::JetSystem sys;
   for (int j = 0; j < k; ++j) {
     const Eigen::Vector3d q = offsets[size_t(j)] / s;
-    const double u = q.dot(a), v = q.dot(b);
-    Eigen::Matrix<double, 6, 1> row;
-    row << 1, u, v, u * u, u * v, v * v;
-    ata.selfadjointView<Eigen::Lower>().rankUpdate(row);  // LDLT reads the lower triangle
-    atb.noalias() += row * q.dot(n);
+    sys.add(q.dot(a), q.dot(b), q.dot(n));
   }
-  const Eigen::LDLT<Eigen::Matrix<double, 6, 6>> ldlt(ata);
+  const Eigen::LDLT<Eigen::Matrix<double, 6, 6>> ldlt(sys.ata);
   // A pivot far below the largest: the neighbours do not span a quadric (collinear, too few).
   const auto d = ldlt.vectorD().cwiseAbs();
   if (ldlt.info() != Eigen::Success || !(d.minCoeff() > 1e-10 * d.maxCoeff())) return nan;
-  const Eigen::Matrix<double, 6, 1> c = ldlt.solve(atb);
+  const Eigen::Matrix<double, 6, 1> c = ldlt.solve(sys.atb);
   const Eigen::Vector3d out = n - c[1] * a - c[2] * b;
   return out.allFinite() ? Eigen::Vector3d(out.normalized()) : nan;
 }

@@ -126,21 +126,16 @@ void member_weights(const Layers& l, const Eigen::MatrixXf& features, Eigen::Ind
 
 /// The weighted jet's normal in frame fr (fr.n - c1 a - c2 b), or NaN when the system is singular.
 Eigen::Vector3d weighted_jet(const Frame& fr, const float* w) {
-  Eigen::Matrix<double, 6, 6> ata = Eigen::Matrix<double, 6, 6>::Zero();
-  Eigen::Matrix<double, 6, 1> atb = Eigen::Matrix<double, 6, 1>::Zero();
+  detail::JetSystem sys;
   double total = 0;
   for (int j = 0; j < kM; ++j) {
-    const double u = fr.u[j], v = fr.v[j];
-    Eigen::Matrix<double, 6, 1> row;
-    row << 1, u, v, u * u, u * v, v * v;
-    ata.selfadjointView<Eigen::Lower>().rankUpdate(row, double(w[j]));  // LDLT reads Lower
-    atb.noalias() += double(w[j]) * fr.h[j] * row;
+    sys.add(fr.u[j], fr.v[j], fr.h[j], double(w[j]));
     total += double(w[j]);
   }
   if (!(total > 0)) return Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
-  ata.diagonal().array() += kFitRidge * total;
-  const Eigen::LDLT<Eigen::Matrix<double, 6, 6>> ldlt(ata);
-  const Eigen::Matrix<double, 6, 1> c = ldlt.solve(atb);
+  sys.ata.diagonal().array() += kFitRidge * total;
+  const Eigen::LDLT<Eigen::Matrix<double, 6, 6>> ldlt(sys.ata);
+  const Eigen::Matrix<double, 6, 1> c = ldlt.solve(sys.atb);
   if (ldlt.info() != Eigen::Success || !c.allFinite())
     return Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
   return (fr.n - c[1] * fr.a - c[2] * fr.b).normalized();
