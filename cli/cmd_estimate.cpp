@@ -60,6 +60,7 @@ void load_model(const EstimateArgs& a, Setup& st) {
   auto model = std::make_shared<const nhnet::NhNetModel>(st.model_path, a.device,
                                                          st.opt.run.threads, a.precision);
   st.device = model->device();
+  st.precision = model->precision();
   st.opt.model.loaded = std::move(model);
   if (!a.report.empty()) st.model_sha256 = sha256_file(st.model_path);
   // --device auto says up front where it runs when NH-Net was asked for; the summary line
@@ -78,6 +79,7 @@ EstimateSummary summary_of(const Setup& st, const Outcome& o, const Result& res)
   s.out = o.out;
   s.method = st.opt.method;
   s.device = st.device;
+  s.precision = st.precision;
   s.failed = res.failed;
   s.k = res.k_used;
   s.scales = res.scales_used;

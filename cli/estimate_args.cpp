@@ -51,7 +51,8 @@ void add_method_options(CLI::App* sub, EstimateArgs& a) {
       ->type_name("DEV");
   sub->add_option("--precision", a.precision,
                   "NH-Net arithmetic: float32 | bfloat16 (2-3x the network's speed on CPUs "
-                  "with AVX512-BF16 or AMX, slower on others; normals move by ~0.1 degree) " +
+                  "with AVX512-BF16 or AMX, slower on others; normals move by a few tenths of a "
+                  "degree) " +
                       default_note(core.model.precision))
       ->type_name("P");
   sub->add_option("--candidate-mix", a.candidate_mix,
@@ -173,7 +174,7 @@ Setup prepare(const EstimateArgs& a) {
   if (a.device != "auto" && a.device != "cpu" && a.device != "cuda")
     throw nhnet::InvalidOptions("--device must be auto, cpu or cuda, got '" + a.device + "'");
   opt.model.precision = a.precision;
-  if (a.precision != "float32" && a.precision != "bfloat16")
+  if (!nhnet::valid_precision(a.precision))
     throw nhnet::InvalidOptions("--precision must be float32 or bfloat16, got '" + a.precision +
                                 "'");
   if (a.candidate_mix != "on" && a.candidate_mix != "off")

@@ -50,7 +50,7 @@ struct EstimateArgs {
 struct Setup {
   nhnet::EstimateOptions opt;
   nhnet::OrientOptions orient;
-  std::string model_path, model_sha256, device = "-";
+  std::string model_path, model_sha256, device = "-", precision = "-";
   std::string fallback_why;  ///< why the default method is not nhnet (empty: it is, or explicit)
 };
 

@@ -58,6 +58,7 @@ std::string report_json(const Setup& st, const std::vector<Outcome>& outcomes, d
   js << "{\n  \"nhnet_version\": " << json_string(nhnet::version())
      << ",\n  \"method\": " << json_string(nhnet::to_string(st.opt.method))
      << ",\n  \"device\": " << json_string(st.device)
+     << ",\n  \"precision\": " << json_string(st.precision)
      << ",\n  \"model\": " << json_or_null(st.model_path)
      << ",\n  \"model_sha256\": " << json_or_null(st.model_sha256)
      << ",\n  \"inputs\": " << outcomes.size() << ",\n  \"ok\": " << t.ok

@@ -86,7 +86,8 @@ void print_estimate_line(const EstimateSummary& s) {
                                           : std::string();
   std::ostringstream line;
   line << "nhnet-cli: " << s.points << " points, " << s.failed << " failed, method "
-       << nhnet::to_string(s.method) << (nhnet ? " on " + s.device : std::string()) << ", k " << s.k
+       << nhnet::to_string(s.method)
+       << (nhnet ? " on " + s.device + " in " + s.precision : std::string()) << ", k " << s.k
        << ", scales " << (s.scales.empty() ? std::string("-") : join(s.scales, "/"))
        << ", noise ratio " << noise << ", " << s.candidates << " candidates" << tiles << ", orient "
        << orient_summary(s.orient, s.orient_source, s.orient_result) << ", " << secs
@@ -95,11 +96,15 @@ void print_estimate_line(const EstimateSummary& s) {
 }
 
 void print_estimate_json(const EstimateSummary& s) {
+  const bool nhnet = s.method == nhnet::Method::NhNet;
   std::ostringstream js;
   js << "{\"input\": " << json_string(s.in) << ", \"output\": " << json_string(s.out)
      << ", \"points\": " << s.points << ", \"failed\": " << s.failed
-     << ", \"method\": " << json_string(nhnet::to_string(s.method)) << ", \"k\": " << s.k
-     << ", \"scales\": [" << join(s.scales, ", ") << "]"
+     << ", \"method\": " << json_string(nhnet::to_string(s.method))
+     << (nhnet ? ", \"device\": " + json_string(s.device) +
+                     ", \"precision\": " + json_string(s.precision)
+               : std::string())
+     << ", \"k\": " << s.k << ", \"scales\": [" << join(s.scales, ", ") << "]"
      << ", \"noise_ratio\": " << json_number(s.noise_ratio)
      << ", \"spacing\": " << json_number(s.spacing) << ", \"candidates\": " << s.candidates
      << ", \"tiles\": " << s.tiles << (s.streamed ? ", \"streamed\": true" : "") << ", "

@@ -20,7 +20,8 @@ class Reporter;
 struct EstimateSummary {
   std::string in, out;
   nhnet::Method method = nhnet::Method::Mfps;
-  std::string device;  ///< where NH-Net ran (named with method nhnet)
+  std::string device;     ///< where NH-Net ran (named with method nhnet)
+  std::string precision;  ///< the network's arithmetic there (ModelOptions::precision resolved)
   int64_t points = 0, failed = 0;
   int k = 0;
   std::vector<int> scales;

@@ -34,6 +34,8 @@ import time
 
 import numpy as np
 
+import nhnet
+
 from nhnet import distributed_io as dio
 from nhnet import distributed_tasks as tasks
 
@@ -66,9 +68,9 @@ def _parse(argv):
     e.add_argument("--seed", type=int, default=1, help="seed of MFPS's random planes (default 1)")
     e.add_argument("--model", help="NH-Net model file (--method nhnet)")
     e.add_argument("--device", default="auto", help="NH-Net device: auto, cpu, cuda")
-    e.add_argument("--precision", choices=["float32", "bfloat16"],
+    e.add_argument("--precision", choices=nhnet.PRECISIONS,
                    help="NH-Net arithmetic, as nhnet-cli --precision (default: the core's, "
-                   "float32)")
+                   f"{nhnet.PRECISIONS[0]})")
     e.add_argument("--orient", nargs="+", default=["auto"], metavar="MODE",
                    help="auto (default, as nhnet-cli: from the input's header), keep, up, "
                    "mst[:K], viewpoint X Y Z, sensors or none")

@@ -114,9 +114,10 @@ model : str, optional
 device : {'auto', 'cpu', 'cuda'}
     NH-Net only (nhnet-cli --device): where the network runs; 'auto' (default) takes a GPU
     when libtorch sees one.
-precision : {'float32', 'bfloat16'}
+precision : {'float32', 'bfloat16'} (nhnet.PRECISIONS, the default first)
     NH-Net only (nhnet-cli --precision): the network's arithmetic; 'bfloat16' runs it 2-3x
-    faster on CPUs with AVX512-BF16 or AMX (slower on others), normals moving by ~0.1 degree.
+    faster on CPUs with AVX512-BF16 or AMX (slower on others), normals moving by a few tenths
+    of a degree.
 learned_fit : bool
     NH-Net only (nhnet-cli --learned-fit): refit each normal of the candidate mix by the learned
     weighted jet fit (default True); False keeps the mix's normals.
@@ -181,6 +182,9 @@ void register_result(py::module_& m) {
 
 void register_estimate(py::module_& m) {
   register_result(m);
+  py::tuple precisions(kPrecisions.size());
+  for (size_t i = 0; i < kPrecisions.size(); ++i) precisions[i] = kPrecisions[i];
+  m.attr("PRECISIONS") = precisions;  // estimate(precision=...), the default first
   const std::string estimate_doc =
       std::string(
           "Estimates unit normals and returns the full result (normals, valid mask, "

@@ -552,7 +552,7 @@ case_batch_runs() {
 import json, sys
 r = json.load(open(sys.argv[1]))
 assert r["inputs"] == 6 and r["ok"] == 3 and r["failed"] == 3 and r["not_run"] == 0, r
-assert r["method"] == "mfps" and r["device"] == "-" and r["model"] is None and r["nhnet_version"]
+assert r["method"] == "mfps" and r["device"] == "-" and r["precision"] == "-" and r["model"] is None and r["nhnet_version"]
 by = {f["input"]: f for f in r["files"]}
 assert [f["input"] for f in r["files"]] == ["in/a.xyz", "in/b.xyz", "in/garbage.xyz", "in/two.xyz", "c.xyz", "missing.xyz"], by
 for name in ("in/a.xyz", "in/b.xyz", "c.xyz"):
@@ -579,7 +579,7 @@ PYEOF
   [[ $(grep -c 'NH-Net runs on' stderr.txt) == 1 ]] || fail "model loaded more than once?"
   local sha
   sha=$(sha256sum "$tiny" | cut -d' ' -f1)
-  "$PY" -c 'import json, sys; r = json.load(open(sys.argv[1])); assert r["model_sha256"] == sys.argv[2] and r["device"] == "cpu" and r["ok"] == 2, r' r3.json "$sha" \
+  "$PY" -c 'import json, sys; r = json.load(open(sys.argv[1])); assert r["model_sha256"] == sys.argv[2] and r["device"] == "cpu" and r["precision"] == "float32" and r["ok"] == 2, r' r3.json "$sha" \
     || fail "bad nhnet report: $(cat r3.json)"
   # A bad model stops the batch before any input is read (exit 5); usage errors are exit 2.
   limited estimate in -o out3 --method nhnet --model missing.pt

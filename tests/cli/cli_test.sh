@@ -230,13 +230,15 @@ case_estimate_nhnet() {
   local tiny=$SRC/tests/data/nhnet_tiny.pt
   # The tiny test model (tests/data/make_nhnet_golden.py): checks the plumbing, not accuracy.
   expect 0 estimate sample.xyz n.xyzn --method nhnet --model "$tiny" --threads 2
-  grep -q "method nhnet" stderr.txt || fail "summary line lacks 'method nhnet'"
+  grep -q "method nhnet on cpu in float32," stderr.txt || fail "summary line lacks 'method nhnet on cpu in float32'"
   grep -q "NH-Net runs on cpu (--device auto)" stderr.txt || fail "--device auto does not say which device"
   expect 0 eval n.xyzn sample.gt.xyzn
   awk -v v="$(eval_value pgp10)" 'BEGIN { exit !(v > 50) }' || fail "nhnet: PGP10 $(eval_value pgp10) <= 50 %"
   # The network in bfloat16: the same plumbing, normals near float32's (mean difference under
   # 1 degree: bfloat16 keeps 8 bits of mantissa, ~0.4 % a value; 0.004 measured on this sample).
-  expect 0 estimate sample.xyz b.xyzn --model "$tiny" --precision bfloat16 --threads 2
+  expect 0 estimate sample.xyz b.xyzn --model "$tiny" --precision bfloat16 --threads 2 --json
+  /usr/bin/python3 -c 'import json, sys; r = json.loads(open(sys.argv[1]).read().splitlines()[-1]); assert r["method"] == "nhnet" and r["device"] == "cpu" and r["precision"] == "bfloat16", r' stdout.txt \
+    || fail "--json does not name the precision: $(cat stdout.txt)"
   expect 0 eval b.xyzn n.xyzn
   awk -v v="$(eval_value mean)" 'BEGIN { exit !(v < 1) }' || fail "bfloat16: mean $(eval_value mean) deg from float32"
   expect 8 estimate sample.xyz g.xyzn --method nhnet --model "$tiny" --device cuda

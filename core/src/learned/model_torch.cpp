@@ -180,7 +180,7 @@ NhNetModel::NhNetModel(const std::string& path, const std::string& device, int t
     : impl_(std::make_unique<Impl>()) {
   if (device != "auto" && device != "cpu" && device != "cuda")
     throw InvalidOptions("device must be auto, cpu or cuda, got '" + device + "'");
-  if (precision != "float32" && precision != "bfloat16")
+  if (!valid_precision(precision))
     throw InvalidOptions("precision must be float32 or bfloat16, got '" + precision + "'");
   impl_->precision = precision;
   impl_->dtype = precision == "bfloat16" ? torch::kBFloat16 : torch::kFloat32;

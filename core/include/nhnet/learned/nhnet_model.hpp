@@ -7,6 +7,7 @@
 #include "nhnet/learned/descriptors.hpp"
 #include "nhnet/progress.hpp"
 
+#include <array>
 #include <memory>
 #include <string>
 
@@ -28,16 +29,24 @@ enum class Refine {
   Auto,   ///< All on a noisy cloud, Moved on a clean one (ModelOptions::auto_noise_ratio)
 };
 
+/// The values ModelOptions::precision takes, the default first: the one list the core, the CLI
+/// and the Python bindings (nhnet.PRECISIONS) check against.
+inline constexpr std::array<const char*, 2> kPrecisions = {"float32", "bfloat16"};
+
+/// Whether `precision` is one of kPrecisions.
+bool valid_precision(const std::string& precision);
+
 /// Which model the learned stage runs, where, and how many points at a time.
 struct ModelOptions {
   /// Model file (TorchScript from nhnet-export); empty = the shipped model (default_model_path()).
   std::string path;
   /// Device: "auto" (CUDA if available, else CPU), "cpu" or "cuda".
   std::string device = "auto";
-  /// The network's arithmetic: "float32", or "bfloat16" (weights and activations; on a CPU
-  /// with AVX512-BF16 or AMX 2-3x the network's speed, elsewhere slower than float32; normals
-  /// move by about a tenth of a degree: docs/design/decisions.md, "NH-Net in bfloat16").
-  std::string precision = "float32";
+  /// The network's arithmetic (kPrecisions): "float32", or "bfloat16" (weights and
+  /// activations; on a CPU with AVX512-BF16 or AMX 2-3x the network's speed, elsewhere slower
+  /// than float32; normals move by a few tenths of a degree, RMS +4 % on a noisy sphere:
+  /// docs/design/decisions.md, "NH-Net in bfloat16").
+  std::string precision = kPrecisions[0];
   /// An already loaded model; when set, `path` and `device` are not used. Lets a front end check
   /// the model before reading any input and reuse it across files.
   std::shared_ptr<const NhNetModel> loaded;
@@ -68,9 +77,9 @@ class NhNetModel {
  public:
   /// `device`: "auto" (CUDA when the linked libtorch has it and a GPU is visible, else CPU),
   /// "cpu" or "cuda" (InputError if unavailable). `threads`: intra-op threads, 0 = all cores.
-  /// `precision`: "float32" or "bfloat16" (ModelOptions::precision).
+  /// `precision`: one of kPrecisions (ModelOptions::precision).
   NhNetModel(const std::string& path, const std::string& device = "auto", int threads = 0,
-             const std::string& precision = "float32");
+             const std::string& precision = kPrecisions[0]);
   ~NhNetModel();
   NhNetModel(NhNetModel&&) noexcept;
   NhNetModel& operator=(NhNetModel&&) noexcept;
