@@ -96,7 +96,9 @@ const std::map<std::string, Runner>& methods() {
       {"pca-auto", [](auto& p, auto& a) { return run_nhnet(p, a, nhnet::Method::Pca, true); }},
       {"mfps", [](auto& p, auto& a) { return run_nhnet(p, a, nhnet::Method::Mfps, false); }},
       {"mfps-auto", [](auto& p, auto& a) { return run_nhnet(p, a, nhnet::Method::Mfps, true); }},
-      // NH-Net with the default model (models/nhnet.pt, or $NHNET_MODEL).
+      // NH-Net with the default model (models/nhnet.pt, or $NHNET_MODEL), the network in float32:
+      // the default precision, auto, takes bfloat16 on some CPUs, and the tables must not depend
+      // on the machine (nhnet-bf16 measures bfloat16).
       {"nhnet", [](auto& p, auto& a) { return run_nhnet(p, a, nhnet::Method::NhNet, true); }},
       // The same without its last step, the learned fit (--learned-fit off): bench/front.py.
       {"nhnet-mix",

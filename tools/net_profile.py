@@ -25,13 +25,24 @@ def child(args) -> None:
     import torch
 
     torch.set_num_threads(args.threads)
+    import json
+
     dtype = torch.bfloat16 if args.precision == "bfloat16" else torch.float32
-    # As model_torch.cpp: the weights cast before freezing, the descriptors fed in that type.
-    loaded = torch.jit.load(args.model).eval().to(dtype)
+    # As model_torch.cpp's to_low_precision: the weights cast before freezing, only the layers the
+    # metadata names when it names some (the descriptors then stay float32), else all of them
+    # and the descriptors fed in that type.
+    files = {"nhnet.json": ""}
+    loaded = torch.jit.load(args.model, _extra_files=files).eval()
+    parts = json.loads(files["nhnet.json"] or "{}").get("bfloat16_modules", [])
+    if dtype != torch.float32 and parts:
+        for name in parts:
+            getattr(loaded, name).to(dtype)
+    else:
+        loaded = loaded.to(dtype)
     m = torch.jit.optimize_for_inference(torch.jit.freeze(loaded))
     x = torch.randn(args.batch, 468)
     x[:, 27:] *= 0.3
-    x = x.to(dtype)
+    x = x.to(torch.float32 if parts else dtype)
     with torch.inference_mode():
         for _ in range(2):
             m(x)

@@ -114,10 +114,11 @@ model : str, optional
 device : {'auto', 'cpu', 'cuda'}
     NH-Net only (nhnet-cli --device): where the network runs; 'auto' (default) takes a GPU
     when libtorch sees one.
-precision : {'float32', 'bfloat16'} (nhnet.PRECISIONS, the default first)
-    NH-Net only (nhnet-cli --precision): the network's arithmetic; 'bfloat16' runs it 2-3x
-    faster on CPUs with AVX512-BF16 or AMX (slower on others), normals moving by a few tenths
-    of a degree.
+precision : {'auto', 'float32', 'bfloat16'} (nhnet.PRECISIONS, the default first)
+    NH-Net only (nhnet-cli --precision): the network's arithmetic; 'bfloat16' runs it ~1.8x
+    faster on CPUs with AVX512-BF16 or AMX (slower on others), normals within ~0.01 degree;
+    'auto' takes bfloat16 where the CPU has AVX512-BF16 and the model supports it, else
+    float32; 'float32' gives the same normals on every machine.
 learned_fit : bool
     NH-Net only (nhnet-cli --learned-fit): refit each normal of the candidate mix by the learned
     weighted jet fit (default True); False keeps the mix's normals.

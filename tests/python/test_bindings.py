@@ -459,4 +459,4 @@ def test_estimate_runs_the_network_in_bfloat16_like_the_cli():
     with pytest.raises(nhnet.InvalidOptions, match="half"):
         nhnet.estimate(pts, method="nhnet", precision="half")
     # The core's list, default first: what the distributed driver offers as --precision.
-    assert nhnet.PRECISIONS == ("float32", "bfloat16")
+    assert nhnet.PRECISIONS == ("auto", "float32", "bfloat16")

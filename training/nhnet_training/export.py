@@ -51,12 +51,26 @@ def export(model: NhNet, cfg: TrainConfig, out: str, info: dict | None = None) -
     flush_tiny(model)
     meta = metadata(cfg)
     meta["info"] = info or {}
+    # The layers the core may cast to bfloat16 (--precision bfloat16); without the key it casts
+    # the whole network and its input.
+    if getattr(model, "bfloat16_modules", None):
+        meta["bfloat16_modules"] = list(model.bfloat16_modules)
     scripted = torch.jit.script(model)
     Path(out).parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(str(out) + ".tmp")
     torch.jit.save(scripted, str(tmp), _extra_files={META_NAME: json.dumps(meta, sort_keys=True)})
     tmp.replace(out)
     return meta
+
+
+def load_exported(path: str) -> tuple[NhNet, TrainConfig, dict]:
+    """An exported model's network, rebuilt from its metadata's config with this version's code
+    and its weights: what a re-export needs when the forward code changed, not the weights."""
+    meta = read_metadata(path)
+    cfg = TrainConfig.from_dict(meta["config"])
+    model = build_model(cfg)
+    model.load_state_dict(torch.jit.load(path, map_location="cpu").state_dict())
+    return model.eval(), cfg, meta.get("info", {})
 
 
 def read_metadata(path: str) -> dict:
@@ -68,10 +82,13 @@ def read_metadata(path: str) -> dict:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="nhnet-export", description="Export a training checkpoint "
                                  "to a TorchScript model for nhnet-cli --method nhnet.")
-    ap.add_argument("checkpoint")
+    ap.add_argument("checkpoint", help="a training checkpoint, or with --reexport an exported model")
     ap.add_argument("out")
+    ap.add_argument("--reexport", action="store_true",
+                    help="CHECKPOINT is an exported model: export its weights and metadata again "
+                    "with this version's code")
     a = ap.parse_args(argv)
-    model, cfg, info = load_checkpoint(a.checkpoint)
+    model, cfg, info = (load_exported if a.reexport else load_checkpoint)(a.checkpoint)
     export(model, cfg, a.out, info)
     print(f"exported {a.out}")
     return 0

@@ -133,7 +133,7 @@ struct NhNetModel::Impl {
   torch::Device dev{torch::kCPU};
   std::string device;
   std::string precision;
-  torch::ScalarType dtype = torch::kFloat32;  // of the weights and the descriptors fed in
+  torch::ScalarType dtype = torch::kFloat32;  // of the descriptors fed in (to_low_precision)
   std::string meta;
   int descriptor_version = kDescriptorVersion;
 };
@@ -150,6 +150,49 @@ torch::jit::Module prepared(const torch::jit::Module& loaded, bool cpu, int step
   if (steps >= 1) m = torch::jit::freeze(m);
   if (steps >= 2 && cpu) m = torch::jit::optimize_for_inference(m);
   return m;
+}
+
+/// The names in a JSON array of strings as json.dumps writes it (["a", "b"]); empty if none.
+std::vector<std::string> names(const std::string& array) {
+  std::vector<std::string> out;
+  for (size_t p = array.find('"'); p != std::string::npos; p = array.find('"', p + 1)) {
+    const size_t e = array.find('"', p + 1);
+    if (e == std::string::npos) break;
+    out.push_back(array.substr(p + 1, e - p - 1));
+    p = e;
+  }
+  return out;
+}
+
+/// Casts the network to `dtype` for ModelOptions::precision. A model whose metadata names its
+/// "bfloat16_modules" (nhnet-export since v7's re-export) casts only those, and its forward feeds
+/// them in their dtype and takes their output back to float32, so the descriptors go in as
+/// float32 (`dtype` becomes float32 here); an older model casts whole, its input with it.
+void to_low_precision(torch::jit::Module& module, const std::string& meta, torch::ScalarType& dtype,
+                      const std::string& path) {
+  const std::vector<std::string> parts = names(json_value(meta, "bfloat16_modules"));
+  if (parts.empty()) {
+    module.to(dtype);
+    return;
+  }
+  for (const std::string& name : parts) {
+    if (!module.hasattr(name) || !module.attr(name).isModule())
+      throw ModelError("model " + path + " names '" + name +
+                       "' among its bfloat16_modules but has no such layer; export it again "
+                       "with nhnet-export");
+    module.attr(name).toModule().to(dtype);
+  }
+  dtype = torch::kFloat32;
+}
+
+/// ModelOptions::precision for this device and model: "auto" is bfloat16 on a CPU with
+/// AVX512-BF16 for a model that names its bfloat16_modules (where bfloat16 is both faster and
+/// as accurate), else float32; the others as they are.
+std::string resolved_precision(const std::string& precision, const std::string& device,
+                               const std::string& meta) {
+  if (precision != "auto") return precision;
+  const bool named = !names(json_value(meta, "bfloat16_modules")).empty();
+  return device == "cpu" && named && cpu_has_bfloat16() ? "bfloat16" : "float32";
 }
 
 /// A test forward pass on two zero descriptors: a model that loads but is not a B x D -> B x 3
@@ -181,9 +224,7 @@ NhNetModel::NhNetModel(const std::string& path, const std::string& device, int t
   if (device != "auto" && device != "cpu" && device != "cuda")
     throw InvalidOptions("device must be auto, cpu or cuda, got '" + device + "'");
   if (!valid_precision(precision))
-    throw InvalidOptions("precision must be float32 or bfloat16, got '" + precision + "'");
-  impl_->precision = precision;
-  impl_->dtype = precision == "bfloat16" ? torch::kBFloat16 : torch::kFloat32;
+    throw InvalidOptions("precision must be auto, float32 or bfloat16, got '" + precision + "'");
   if (threads < 0) throw InvalidOptions("threads must be >= 0");
   const bool cuda = torch::cuda::is_available();
   if (device == "cuda" && !cuda)
@@ -208,7 +249,10 @@ NhNetModel::NhNetModel(const std::string& path, const std::string& device, int t
   impl_->meta = extra["nhnet.json"];
   impl_->descriptor_version = check_metadata(impl_->meta, path);
   impl_->module.eval();
-  if (impl_->dtype != torch::kFloat32) impl_->module.to(impl_->dtype);
+  impl_->precision = resolved_precision(precision, impl_->device, impl_->meta);
+  impl_->dtype = impl_->precision == "bfloat16" ? torch::kBFloat16 : torch::kFloat32;
+  if (impl_->dtype != torch::kFloat32)
+    to_low_precision(impl_->module, impl_->meta, impl_->dtype, path);
   at::set_num_threads(threads > 0 ? threads : std::max(1, omp_get_max_threads()));
   // The most prepared module that runs: a model the passes cannot handle runs as it was loaded,
   // and oneDNN's optimised convolutions refuse bfloat16 on CPUs without AVX-512, where the

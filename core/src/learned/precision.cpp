@@ -1,10 +1,19 @@
-// The network's arithmetic, ModelOptions::precision (nhnet_model.hpp): which values are valid.
-// Built with or without libtorch.
+// The network's arithmetic, ModelOptions::precision (nhnet_model.hpp): which values are valid and
+// whether the CPU has what "auto" needs. Built with or without libtorch.
 #include "nhnet/learned/nhnet_model.hpp"
 
 #include <algorithm>
 
 namespace nhnet {
+
+bool cpu_has_bfloat16() {
+#if (defined(__x86_64__) || defined(__i386__)) && defined(__GNUC__)
+  __builtin_cpu_init();
+  return __builtin_cpu_supports("avx512bf16");
+#else
+  return false;
+#endif
+}
 
 bool valid_precision(const std::string& precision) {
   return std::any_of(kPrecisions.begin(), kPrecisions.end(),

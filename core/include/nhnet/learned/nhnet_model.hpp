@@ -31,10 +31,14 @@ enum class Refine {
 
 /// The values ModelOptions::precision takes, the default first: the one list the core, the CLI
 /// and the Python bindings (nhnet.PRECISIONS) check against.
-inline constexpr std::array<const char*, 2> kPrecisions = {"float32", "bfloat16"};
+inline constexpr std::array<const char*, 3> kPrecisions = {"auto", "float32", "bfloat16"};
 
 /// Whether `precision` is one of kPrecisions.
 bool valid_precision(const std::string& precision);
+
+/// Whether this CPU has AVX512-BF16, the dot products oneDNN's bfloat16 kernels run on (every
+/// CPU with AMX has them); elsewhere bfloat16 runs slower than float32.
+bool cpu_has_bfloat16();
 
 /// Which model the learned stage runs, where, and how many points at a time.
 struct ModelOptions {
@@ -42,10 +46,12 @@ struct ModelOptions {
   std::string path;
   /// Device: "auto" (CUDA if available, else CPU), "cpu" or "cuda".
   std::string device = "auto";
-  /// The network's arithmetic (kPrecisions): "float32", or "bfloat16" (weights and
-  /// activations; on a CPU with AVX512-BF16 or AMX 2-3x the network's speed, elsewhere slower
-  /// than float32; normals move by a few tenths of a degree, RMS +4 % on a noisy sphere:
-  /// docs/design/decisions.md, "NH-Net in bfloat16").
+  /// The network's arithmetic (kPrecisions): "float32"; "bfloat16" (the layers the model's
+  /// metadata names, nearly all its multiply-adds: 1.8x the network's speed on a CPU with
+  /// AVX512-BF16 or AMX, slower elsewhere; normals within ~0.01 degree of float32's; a model
+  /// without the names casts whole, RMS +4 % on smooth noisy surfaces); "auto" = bfloat16 where
+  /// both the CPU has AVX512-BF16 and the model names its layers, else float32
+  /// (docs/design/decisions.md, "NH-Net in bfloat16").
   std::string precision = kPrecisions[0];
   /// An already loaded model; when set, `path` and `device` are not used. Lets a front end check
   /// the model before reading any input and reuse it across files.
@@ -86,7 +92,7 @@ class NhNetModel {
 
   /// "cpu" or "cuda": the device in use.
   const std::string& device() const;
-  /// "float32" or "bfloat16": the arithmetic the network runs in.
+  /// "float32" or "bfloat16": the arithmetic the network runs in ("auto" resolved).
   const std::string& precision() const;
   /// The metadata JSON stored in the model.
   const std::string& metadata() const;
