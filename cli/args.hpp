@@ -62,5 +62,9 @@ void add_output_flags(CLI::App* sub, OutputFlags& flags);
 void add_threads_option(CLI::App* sub, std::string& threads);
 /// --seed S of MFPS's random plane samples (default: the core's).
 void add_seed_option(CLI::App* sub, std::string& seed);
+/// --precision P of the network (nhnet::kPrecisions; default: the core's).
+void add_precision_option(CLI::App* sub, std::string& precision);
+/// --precision's value, checked (nhnet::InvalidOptions naming the flag).
+std::string parse_precision(const std::string& precision);
 
 }  // namespace nhcli

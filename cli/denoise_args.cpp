@@ -59,6 +59,7 @@ void add_denoise_options(CLI::App* sub, DenoiseArgs& a) {
                 "taken from the input); default: no normals in OUT");
   add_threads_option(sub, a.threads);
   add_seed_option(sub, a.seed);
+  add_precision_option(sub, a.precision);
   add_output_flags(sub, a.output);
   sub->footer(kFooter);
 }
@@ -76,6 +77,7 @@ DenoiseSetup parse_denoise_args(const DenoiseArgs& a) {
   if (!st.from_input()) st.estimate.method = nhnet::method_from_string(st.source);
   st.estimate.run.threads = st.denoise.run.threads;
   st.estimate.mfps.seed = parse_u64("--seed", a.seed);
+  st.estimate.model.precision = parse_precision(a.precision);
   check_output_format(a.out);
   return st;
 }

@@ -29,6 +29,7 @@ struct DenoiseArgs {
   std::string radius;        ///< empty = from the average spacing
   std::string threads = std::to_string(nhnet::DenoiseOptions{}.run.threads);
   std::string seed = std::to_string(nhnet::EstimateOptions{}.mfps.seed);
+  std::string precision = nhnet::EstimateOptions{}.model.precision;  ///< of NH-Net's normals
   bool keep_normals = false;
   OutputFlags output;
 };

@@ -49,13 +49,7 @@ void add_method_options(CLI::App* sub, EstimateArgs& a) {
   sub->add_option("--device", a.device,
                   "NH-Net device: auto | cpu | cuda " + default_note(core.model.device))
       ->type_name("DEV");
-  sub->add_option("--precision", a.precision,
-                  "NH-Net arithmetic: auto | float32 | bfloat16. bfloat16: ~1.8x the network's "
-                  "speed on CPUs with AVX512-BF16 or AMX, slower on others, normals within "
-                  "~0.01 degree; auto: bfloat16 where the CPU has AVX512-BF16 and the model "
-                  "supports it, else float32; float32: the same normals on every machine " +
-                      default_note(core.model.precision))
-      ->type_name("P");
+  add_precision_option(sub, a.precision);
   sub->add_option("--candidate-mix", a.candidate_mix,
                   "NH-Net: mix the network's normals with the PCA and MFPS candidates (on), or "
                   "the network's normals as they are, the paper's (off) " +
@@ -174,10 +168,7 @@ Setup prepare(const EstimateArgs& a) {
   opt.model.device = a.device;
   if (a.device != "auto" && a.device != "cpu" && a.device != "cuda")
     throw nhnet::InvalidOptions("--device must be auto, cpu or cuda, got '" + a.device + "'");
-  opt.model.precision = a.precision;
-  if (!nhnet::valid_precision(a.precision))
-    throw nhnet::InvalidOptions("--precision must be auto, float32 or bfloat16, got '" +
-                                a.precision + "'");
+  opt.model.precision = parse_precision(a.precision);
   if (a.candidate_mix != "on" && a.candidate_mix != "off")
     throw nhnet::InvalidOptions("--candidate-mix must be on or off, got '" + a.candidate_mix + "'");
   opt.model.candidate_mix = a.candidate_mix == "on";

@@ -43,6 +43,11 @@ def _read(path):
     return np.asarray(cloud.points), np.asarray(cloud.normals)
 
 
+# The network's cases in float32: the default precision, auto, takes bfloat16 on CPUs with
+# AVX512-BF16, and the expected outputs must hold on every machine.
+F32 = ("--precision", "float32")
+
+
 def _cli(*args):
     subprocess.run([str(CLI), *map(str, args), "--quiet", "--overwrite"], check=True)
 
@@ -52,13 +57,14 @@ def _cli_cases(work, out):
     estimates = {
         "cli_pca": (noisy, "--method", "pca", "--orient", "none"),
         "cli_mfps": (noisy, "--method", "mfps", "--orient", "none"),
-        "cli_nhnet": (noisy, "--method", "nhnet", "--orient", "none"),
-        "cli_default_mst": (noisy,),
+        "cli_nhnet": (noisy, "--method", "nhnet", "--orient", "none", *F32),
+        "cli_default_mst": (noisy, *F32),
         "cli_mfps_mst_k30": (noisy, "--method", "mfps", "--orient", "mst:30"),
         "cli_pca_viewpoint": (noisy, "--method", "pca", "--orient", "viewpoint", "0", "0", "2"),
         "cli_pca_keep": (gt, "--method", "pca"),
         "cli_mfps_tiled": (noisy, "--method", "mfps", "--orient", "none", "--tile-points", "1500"),
-        "cli_nhnet_tiled": (noisy, "--method", "nhnet", "--orient", "none", "--tile-points", "1500"),
+        "cli_nhnet_tiled": (noisy, "--method", "nhnet", "--orient", "none", "--tile-points", "1500",
+                            *F32),
         "cli_mfps_stream": (noisy, "--method", "mfps", "--stream", "--tile-points", "1500"),
         "cli_pca_clean_k12": (clean, "--method", "pca", "-k", "12", "--orient", "none"),
         "cli_mfps_clean_scales": (clean, "--method", "mfps", "--scales", "20,40,60", "--orient", "none"),
@@ -70,7 +76,7 @@ def _cli_cases(work, out):
     _cli("denoise", noisy, work / "denoised.ply", "--normals-from", "mfps", "--keep-normals")
     points, normals = _read(work / "denoised.ply")
     out["cli_denoise_mfps_points"], out["cli_denoise_mfps_normals"] = points, normals
-    _cli("denoise", noisy, work / "denoised_default.xyz")
+    _cli("denoise", noisy, work / "denoised_default.xyz", *F32)
     out["cli_denoise_default_points"] = _read(work / "denoised_default.xyz")[0]
     _cli("estimate", noisy, work / "for_eval.xyzn", "--method", "mfps", "--orient", "none")
     res = subprocess.run([str(CLI), "eval", work / "for_eval.xyzn", gt, "--json"], check=True,
@@ -84,7 +90,7 @@ def _python_cases(work, out):
 
     pts = _read(work / "noisy.xyz")[0]
     for method in ("pca", "mfps", "nhnet"):
-        r = nhnet.estimate(pts, method=method)
+        r = nhnet.estimate(pts, method=method, precision="float32")
         out[f"py_{method}_normals"] = np.asarray(r.normals)
         out[f"py_{method}_curvature"] = np.asarray(r.curvature)
     mfps = out["py_mfps_normals"].copy()
