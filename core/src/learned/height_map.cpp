@@ -2,6 +2,7 @@
 #include "nhnet/learned/height_map.hpp"
 
 #include "nhnet/errors.hpp"
+#include "util/fast_math.hpp"
 #include "util/parallel.hpp"
 
 #include <Eigen/Geometry>
@@ -39,7 +40,8 @@ struct Contributions {
 
   /// Every (neighbour, cell) pair within the ball, in neighbour order then row-major cell
   /// order, for the map of frame (x, y, nf) with cells of size 1 / inv_h on an m x m grid; then
-  /// all their Gaussian weights in one vectorised exponential.
+  /// all their Gaussian weights in one vectorised exponential (util/fast_math.hpp: four lanes
+  /// with AVX2, same bits without; Eigen's two-lane exp was a quarter of the maps' time).
   void collect(const std::vector<Eigen::Vector3d>& d, const Eigen::Vector3d& nf,
                const Eigen::Vector3d& x, const Eigen::Vector3d& y, double inv_h, int m,
                double ball) {
@@ -73,9 +75,8 @@ struct Contributions {
           ++count;
         }
     }
-    const auto n = Eigen::Index(count);
-    Eigen::Map<Eigen::ArrayXd>(weight.data(), n) =
-        (Eigen::Map<const Eigen::ArrayXd>(dist2.data(), n) * -0.5).exp();
+    for (size_t e = 0; e < count; ++e) weight[e] = dist2[e] * -0.5;
+    detail::exp_nonpositive_batch(weight.data(), weight.data(), count);
   }
 };
 

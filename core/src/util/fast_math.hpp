@@ -1,5 +1,6 @@
 // Two kernels of MFPS's plane stage (paper Eq. 1-2), which were 40 % of its time as library calls:
 // exp of the Gaussian kernels, and the smallest eigenpair of the 4-point planes' 3x3 covariances.
+// The batch exp also weighs the height maps' cells (learned/height_map.cpp).
 //
 // exp_nonpositive: exp(x) for a batch of arguments x <= 0.
 // Range reduction x = k ln2 + r (|r| <= ln2 / 2, Cody-Waite split of ln2), a degree-11 Taylor
@@ -104,20 +105,44 @@ inline void plane_kernels_baseline(const double* x, const double* y, const doubl
 }
 
 #if defined(NHNET_HAVE_AVX2_LANES)
+/// exp_nonpositive of four lanes v (same IEEE operations per lane as the scalar path, no FMA);
+/// only for a CPU with AVX2 (has_avx2()).
+__attribute__((target("avx2"))) inline __m256d exp_lanes_avx2(__m256d v) {
+  namespace k = fast_exp_constants;
+  const __m256d log2e = _mm256_set1_pd(k::kLog2e), shifter = _mm256_set1_pd(k::kShifter),
+                ln2hi = _mm256_set1_pd(k::kLn2Hi), ln2lo = _mm256_set1_pd(k::kLn2Lo),
+                one = _mm256_set1_pd(1.0);
+  // max(lowest, v) returns v when v is NaN, as the scalar path keeps NaN.
+  v = _mm256_max_pd(_mm256_set1_pd(k::kLowest), v);
+  __m256d kd = _mm256_add_pd(_mm256_mul_pd(v, log2e), shifter);
+  const __m256i bits = _mm256_castpd_si256(kd);
+  kd = _mm256_sub_pd(kd, shifter);
+  const __m256d e =
+      _mm256_sub_pd(_mm256_sub_pd(v, _mm256_mul_pd(kd, ln2hi)), _mm256_mul_pd(kd, ln2lo));
+  __m256d p = _mm256_set1_pd(k::kC[0]);
+  for (int i = 1; i < 10; ++i) p = _mm256_add_pd(_mm256_mul_pd(p, e), _mm256_set1_pd(k::kC[i]));
+  p = _mm256_add_pd(_mm256_mul_pd(_mm256_add_pd(_mm256_mul_pd(p, e), one), e), one);
+  const __m256i bias = _mm256_set1_epi64x(1023);
+  return _mm256_mul_pd(p, _mm256_castsi256_pd(_mm256_slli_epi64(_mm256_add_epi64(bits, bias), 52)));
+}
+
+/// exp_nonpositive(x, y, n) four lanes at a time (same bits); only for a CPU with AVX2.
+__attribute__((target("avx2"))) inline void exp_nonpositive_avx2(const double* x, double* y,
+                                                                 size_t n) {
+  size_t i = 0;
+  for (; i + 4 <= n; i += 4) _mm256_storeu_pd(y + i, exp_lanes_avx2(_mm256_loadu_pd(x + i)));
+  exp_nonpositive(x + i, y + i, n - i);
+}
+
 /// plane_kernels_baseline four lanes at a time (same IEEE operations per lane, no FMA); only
 /// for a CPU with AVX2 (has_avx2()).
 __attribute__((target("avx2"))) inline void plane_kernels_avx2(const double* x, const double* y,
                                                                const double* z, size_t m,
                                                                const double* c, const double* n,
                                                                double inv_s2, double* out) {
-  namespace k = fast_exp_constants;
   const __m256d cx = _mm256_set1_pd(c[0]), cy = _mm256_set1_pd(c[1]), cz = _mm256_set1_pd(c[2]);
   const __m256d nx = _mm256_set1_pd(n[0]), ny = _mm256_set1_pd(n[1]), nz = _mm256_set1_pd(n[2]);
-  const __m256d neg_inv = _mm256_set1_pd(-inv_s2), lowest = _mm256_set1_pd(k::kLowest),
-                log2e = _mm256_set1_pd(k::kLog2e), shifter = _mm256_set1_pd(k::kShifter),
-                ln2hi = _mm256_set1_pd(k::kLn2Hi), ln2lo = _mm256_set1_pd(k::kLn2Lo),
-                one = _mm256_set1_pd(1.0);
-  const __m256i bias = _mm256_set1_epi64x(1023);
+  const __m256d neg_inv = _mm256_set1_pd(-inv_s2);
   size_t t = 0;
   for (; t + 4 <= m; t += 4) {
     const __m256d r =
@@ -125,17 +150,7 @@ __attribute__((target("avx2"))) inline void plane_kernels_avx2(const double* x, 
                                     _mm256_mul_pd(_mm256_sub_pd(_mm256_loadu_pd(y + t), cy), ny)),
                       _mm256_mul_pd(_mm256_sub_pd(_mm256_loadu_pd(z + t), cz), nz));
     // -r * r * inv_s2 == (r * r) * -inv_s2 exactly (rounding is symmetric in the sign).
-    const __m256d v = _mm256_max_pd(lowest, _mm256_mul_pd(_mm256_mul_pd(r, r), neg_inv));
-    __m256d kd = _mm256_add_pd(_mm256_mul_pd(v, log2e), shifter);
-    const __m256i bits = _mm256_castpd_si256(kd);
-    kd = _mm256_sub_pd(kd, shifter);
-    const __m256d e =
-        _mm256_sub_pd(_mm256_sub_pd(v, _mm256_mul_pd(kd, ln2hi)), _mm256_mul_pd(kd, ln2lo));
-    __m256d p = _mm256_set1_pd(k::kC[0]);
-    for (int i = 1; i < 10; ++i) p = _mm256_add_pd(_mm256_mul_pd(p, e), _mm256_set1_pd(k::kC[i]));
-    p = _mm256_add_pd(_mm256_mul_pd(_mm256_add_pd(_mm256_mul_pd(p, e), one), e), one);
-    const __m256d scale = _mm256_castsi256_pd(_mm256_slli_epi64(_mm256_add_epi64(bits, bias), 52));
-    _mm256_storeu_pd(out + t, _mm256_mul_pd(p, scale));
+    _mm256_storeu_pd(out + t, exp_lanes_avx2(_mm256_mul_pd(_mm256_mul_pd(r, r), neg_inv)));
   }
   plane_kernels_baseline(x + t, y + t, z + t, m - t, c, n, inv_s2, out + t);
 }
@@ -149,6 +164,14 @@ inline bool has_avx2() {
 #else
   return false;
 #endif
+}
+
+/// exp_nonpositive(x, y, n), four lanes at a time where the CPU has AVX2 (same bits).
+inline void exp_nonpositive_batch(const double* x, double* y, size_t n) {
+#if defined(NHNET_HAVE_AVX2_LANES)
+  if (has_avx2()) return exp_nonpositive_avx2(x, y, n);
+#endif
+  exp_nonpositive(x, y, n);
 }
 
 /// plane_kernels_baseline, four lanes at a time where the CPU has AVX2 (same bits).
