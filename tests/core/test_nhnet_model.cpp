@@ -164,8 +164,9 @@ TEST(NhNetModel, BfloatSixteenKeepsTheNormalsPathInFloat32) {
   std::ifstream cpuinfo("/proc/cpuinfo");
   const std::string flags((std::istreambuf_iterator<char>(cpuinfo)),
                           std::istreambuf_iterator<char>());
-  if (!flags.empty())
+  if (!flags.empty()) {
     EXPECT_EQ(cpu_has_bfloat16(), flags.find(" avx512_bf16") != std::string::npos);
+  }
   const NhNetModel automatic(default_model_path(), "cpu", 2, "auto");
   EXPECT_EQ(automatic.precision(), cpu_has_bfloat16() ? "bfloat16" : "float32");
   EXPECT_EQ(NhNetModel(kData + "nhnet_tiny.pt", "cpu", 1, "auto").precision(), "float32");
