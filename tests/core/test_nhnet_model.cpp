@@ -137,8 +137,9 @@ TEST(NhNetModel, RunsInBfloat16NearFloat32) {
 // two layers run in bfloat16, the matrices, the gathering MLP and the residual stay float32. On a
 // noisy sphere's descriptors its normals then stay within 0.05 degree of float32's on average
 // (measured 0.0054); the whole network in bfloat16 (the first export of v7, NHNET_MODEL set to
-// it) moved them 0.63 (decisions.md, "NH-Net in bfloat16"), so the bound tells the two apart. "auto" takes bfloat16 exactly where the CPU has AVX512-BF16 (/proc/cpuinfo's avx512_bf16
-// flag, read independently of the core's check) and never for a model without the names.
+// it) moved them 0.63 (decisions.md, "NH-Net in bfloat16"), so the bound tells the two apart.
+// "auto" takes bfloat16 exactly where the CPU has AVX512-BF16 (/proc/cpuinfo's avx512_bf16 flag,
+// read independently of the core's check) and never for a model without the names.
 TEST(NhNetModel, BfloatSixteenKeepsTheNormalsPathInFloat32) {
   const fixtures::Fixture f = fixtures::sphere(4000, 3);
   const Points noisy = fixtures::with_noise(f.points, 0.01, 3);
