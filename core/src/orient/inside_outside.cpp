@@ -143,18 +143,26 @@ Grid build_grid(const Points& pts, double h, int dilation) {
   return g;
 }
 
-/// Every point's vote on `g` into `votes` (m entries); returns how many points leaked.
-int64_t vote_all(const Grid& g, const Points& points, const Normals& normals, int threads,
-                 std::vector<int8_t>& votes) {
-  const Eigen::Index m = points.rows();
-  std::vector<uint8_t> leaked(static_cast<size_t>(m), 0);
-  parallel_for(m, threads, nullptr, [&](int64_t i) {
-    bool l = false;
-    votes[size_t(i)] = grid_vote(g, points.row(i), normals.row(i), &l);
-    leaked[size_t(i)] = l ? 1 : 0;
-  });
+/// The points' votes on `g` (into `votes` when not null), a block of points at a time, counting
+/// the points that leaked, until stop(count) holds after a block; returns the count (of every
+/// point unless stopped).
+template <class Stop>
+int64_t vote_blocks(const Grid& g, const Points& points, const Normals& normals, int threads,
+                    int8_t* votes, Stop&& stop) {
+  const int64_t m = int64_t(points.rows());
+  constexpr int64_t kBlock = 16384;  // enough for the threads to share, few to stop soon after
+  std::vector<uint8_t> leaked(size_t(std::min(kBlock, m)), 0);
   int64_t both = 0;
-  for (const uint8_t l : leaked) both += l;
+  for (int64_t start = 0; start < m && !stop(both); start += kBlock) {
+    const int64_t n = std::min(kBlock, m - start);
+    parallel_for(n, threads, nullptr, [&](int64_t i) {
+      bool l = false;
+      const int8_t v = grid_vote(g, points.row(start + i), normals.row(start + i), &l);
+      if (votes) votes[size_t(start + i)] = v;
+      leaked[size_t(i)] = l ? 1 : 0;
+    });
+    for (int64_t i = 0; i < n; ++i) both += leaked[size_t(i)];
+  }
   return both;
 }
 
@@ -256,7 +264,9 @@ InsideOutside::InsideOutside(const Points& points, const Normals& normals, doubl
   for (size_t c = 0; c < plan.h.size(); ++c) {
     auto g = std::make_unique<Grid>(build_grid(points, plan.h[c], plan.dilation[c]));
     ++grids_built_;
-    leaked_ = vote_all(*g, points, normals, threads, votes);
+    // A grid stops voting once too many points leaked (an open scan leaks at once).
+    leaked_ = vote_blocks(*g, points, normals, threads, votes.data(),
+                          [&](int64_t both) { return double(both) / double(m) >= plan.max_leak; });
     leak_ = double(leaked_) / double(m);
     if (leak_ < plan.max_leak) {
       votes_.swap(votes);
@@ -275,7 +285,8 @@ InsideOutside::InsideOutside(const Points& points, const Normals& normals, const
     throw InvalidOptions("orient: the given sides grid does not match its dimensions");
   grid_ = std::make_unique<Grid>(grid);
   grids_built_ = 0;
-  leaked_ = vote_all(*grid_, points, normals, threads, votes_);
+  leaked_ =
+      vote_blocks(*grid_, points, normals, threads, votes_.data(), [](int64_t) { return false; });
   leak_ = m > 0 ? double(leaked_) / double(m) : 0;
 }
 
@@ -284,22 +295,8 @@ int64_t InsideOutside::count_leaked(const Points& points, const Normals& normals
   const int64_t total = grid.dims[0] * grid.dims[1] * grid.dims[2];
   if (!(grid.h > 0) || int64_t(grid.cell.size()) != total || total == 0)
     throw InvalidOptions("orient: the given sides grid does not match its dimensions");
-  const Grid g(grid);
-  const int64_t m = int64_t(points.rows());
-  // Blocks large enough for the threads to share, small enough to stop soon after the limit.
-  const int64_t block = limit > 0 ? 16384 : std::max<int64_t>(m, 1);
-  std::vector<uint8_t> leaked(size_t(std::min(block, m)), 0);
-  int64_t both = 0;
-  for (int64_t start = 0; start < m && (limit <= 0 || both < limit); start += block) {
-    const int64_t n = std::min(block, m - start);
-    parallel_for(n, threads, nullptr, [&](int64_t i) {
-      bool l = false;
-      grid_vote(g, points.row(start + i), normals.row(start + i), &l);
-      leaked[size_t(i)] = l ? 1 : 0;
-    });
-    for (int64_t i = 0; i < n; ++i) both += leaked[size_t(i)];
-  }
-  return both;
+  return vote_blocks(Grid(grid), points, normals, threads, nullptr,
+                     [&](int64_t both) { return limit > 0 && both >= limit; });
 }
 
 InsideOutside::~InsideOutside() = default;

@@ -75,8 +75,8 @@ class InsideOutside {
   int8_t vote(const Eigen::RowVector3d& p, const Eigen::RowVector3d& n) const;
   /// Voxel size used (points' units); 0 when no grid was watertight (an open cloud).
   double voxel() const;
-  /// Share of the points whose both offsets reached the outside on the grid used (on the
-  /// coarsest grid tried when none was watertight).
+  /// Share of the points whose both offsets reached the outside on the grid used (when none was
+  /// watertight: at least max_leak, on the coarsest grid tried, which stopped voting there).
   double leak() const { return leak_; }
   /// The number of those points (leak() x M).
   int64_t leaked() const { return leaked_; }

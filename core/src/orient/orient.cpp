@@ -102,31 +102,34 @@ class Adjacency {
 
 void Adjacency::link(const IndexMatrix& knn, int k, int threads) {
   const Eigen::Index m = knn.rows();
+  // Reverse edges first: row j lists every i that lists j, in ascending i (one serial pass).
+  std::vector<int64_t> rstart(size_t(m) + 1, 0);
+  for (Eigen::Index i = 0; i < m; ++i)
+    for (Eigen::Index c = 1; c < k; ++c)
+      if (knn(i, c) != int32_t(i)) ++rstart[size_t(knn(i, c)) + 1];
+  for (size_t i = 0; i < size_t(m); ++i) rstart[i + 1] += rstart[i];
+  std::vector<int32_t> reverse(size_t(rstart.back()));
+  std::vector<int64_t> fill(rstart.begin(), rstart.end() - 1);
+  for (Eigen::Index i = 0; i < m; ++i)
+    for (Eigen::Index c = 1; c < k; ++c)
+      if (knn(i, c) != int32_t(i)) reverse[size_t(fill[size_t(knn(i, c))]++)] = int32_t(i);
+  // Row i holds at most its own k - 1 and its reverse edges: each row's own neighbours sorted
+  // and merged with its (sorted) reverse ones without repeats, in parallel; then the gaps close.
   std::vector<int64_t> start(size_t(m) + 1, 0);
-  for (Eigen::Index i = 0; i < m; ++i)
-    for (Eigen::Index c = 1; c < k; ++c) {
-      const int32_t j = knn(i, c);
-      if (j == int32_t(i)) continue;
-      ++start[size_t(i) + 1];
-      ++start[size_t(j) + 1];
-    }
-  for (size_t i = 0; i < size_t(m); ++i) start[i + 1] += start[i];
+  for (size_t i = 0; i < size_t(m); ++i)
+    start[i + 1] = start[i] + (k - 1) + (rstart[i + 1] - rstart[i]);
   std::vector<int32_t> next(size_t(start.back()));
-  std::vector<int64_t> fill(start.begin(), start.end() - 1);
-  for (Eigen::Index i = 0; i < m; ++i)
-    for (Eigen::Index c = 1; c < k; ++c) {
-      const int32_t j = knn(i, c);
-      if (j == int32_t(i)) continue;
-      next[size_t(fill[size_t(i)]++)] = j;
-      next[size_t(fill[size_t(j)]++)] = int32_t(i);
-    }
-  // Sort and deduplicate every row in place (count the survivors), then close the gaps.
   std::vector<int64_t> kept(static_cast<size_t>(m));
   detail::parallel_for(m, threads, nullptr, [&](int64_t i) {
-    int32_t* b = next.data() + start[size_t(i)];
-    int32_t* e = next.data() + start[size_t(i) + 1];
-    std::sort(b, e);
-    kept[size_t(i)] = std::unique(b, e) - b;
+    thread_local std::vector<int32_t> own;
+    own.clear();
+    for (Eigen::Index c = 1; c < k; ++c)
+      if (knn(i, c) != int32_t(i)) own.push_back(knn(i, c));
+    std::sort(own.begin(), own.end());
+    const int32_t* rb = reverse.data() + rstart[size_t(i)];
+    const int32_t* re = reverse.data() + rstart[size_t(i) + 1];
+    int32_t* out = next.data() + start[size_t(i)];
+    kept[size_t(i)] = std::set_union(own.begin(), own.end(), rb, re, out) - out;
   });
   // In place, front to back: a row's new start is never after its old one (a fresh array
   // would cost as much in first-touch page faults as the copy itself).
@@ -366,6 +369,12 @@ class Prim {
   /// that point's cheapest so far); reports progress.
   void visit(int32_t u) {
     visited_[size_t(u)] = 1;
+    // The neighbours' rows are scattered (the frontier wanders): fetch them all before the
+    // first is needed, so their cache misses overlap.
+    for (int32_t v : graph_.adj[size_t(u)]) {
+      __builtin_prefetch(guide_.row(v).data());
+      __builtin_prefetch(pts_.row(v).data());
+    }
     for (int32_t v : graph_.adj[size_t(u)])
       if (!visited_[size_t(v)]) frontier_.offer(v, 1.0 - std::abs(consistency(u, v)), u);
     if ((++done_ & 4095) == 0 && options_.run.progress &&
@@ -394,68 +403,69 @@ class Prim {
   /// for exact ties of cost.
   class Frontier {
    public:
-    explicit Frontier(size_t n) : cost_(n, 0), from_(n, -1), slot_(n, -1) {}
+    explicit Frontier(size_t n) : from_(n, -1), slot_(n, -1) {}
     bool empty() const { return heap_.empty(); }
     void offer(int32_t v, double cost, int32_t from) {
       int32_t at = slot_[size_t(v)];
-      if (at >= 0 && !(cost < cost_[size_t(v)])) return;
-      cost_[size_t(v)] = cost;
+      if (at >= 0 && !(cost < heap_[size_t(at)].cost)) return;
       from_[size_t(v)] = from;
       if (at < 0) {
         at = int32_t(heap_.size());
-        heap_.push_back(v);
+        heap_.push_back({cost, v});
       }
-      up(at);
+      up(at, {cost, v});
     }
     /// Removes the point with the cheapest edge; its source in `from`.
     int32_t pop(int32_t& from) {
-      const int32_t v = heap_.front();
+      const int32_t v = heap_.front().v;
       from = from_[size_t(v)];
       slot_[size_t(v)] = -1;
-      const int32_t last = heap_.back();
+      const Entry last = heap_.back();
       heap_.pop_back();
-      if (!heap_.empty()) {
-        heap_.front() = last;
-        slot_[size_t(last)] = 0;
-        down(0);
-      }
+      if (!heap_.empty()) down(0, last);
       return v;
     }
 
    private:
-    void place(int32_t at, int32_t v) {
-      heap_[size_t(at)] = v;
-      slot_[size_t(v)] = at;
+    /// A point in the heap with its cheapest edge's cost (kept beside it: the sifts compare
+    /// costs without a lookup per child).
+    struct Entry {
+      double cost;
+      int32_t v;
+    };
+    void place(int32_t at, const Entry& e) {
+      heap_[size_t(at)] = e;
+      slot_[size_t(e.v)] = at;
     }
-    void up(int32_t at) {
-      const int32_t v = heap_[size_t(at)];
+    /// Sifts e up from slot `at` (whose entry it replaces).
+    void up(int32_t at, const Entry& e) {
       while (at > 0) {
         const int32_t parent = (at - 1) / 4;
-        if (!(cost_[size_t(v)] < cost_[size_t(heap_[size_t(parent)])])) break;
+        if (!(e.cost < heap_[size_t(parent)].cost)) break;
         place(at, heap_[size_t(parent)]);
         at = parent;
       }
-      place(at, v);
+      place(at, e);
     }
-    void down(int32_t at) {
-      const int32_t v = heap_[size_t(at)], n = int32_t(heap_.size());
+    /// Sifts e down from slot `at` (whose entry it replaces).
+    void down(int32_t at, const Entry& e) {
+      const int32_t n = int32_t(heap_.size());
       for (;;) {
         const int32_t first = 4 * at + 1;
         if (first >= n) break;
         int32_t best = first;
         for (int32_t c = first + 1; c < std::min(first + 4, n); ++c)
-          if (cost_[size_t(heap_[size_t(c)])] < cost_[size_t(heap_[size_t(best)])]) best = c;
-        if (!(cost_[size_t(heap_[size_t(best)])] < cost_[size_t(v)])) break;
+          if (heap_[size_t(c)].cost < heap_[size_t(best)].cost) best = c;
+        if (!(heap_[size_t(best)].cost < e.cost)) break;
         place(at, heap_[size_t(best)]);
         at = best;
       }
-      place(at, v);
+      place(at, e);
     }
 
-    std::vector<double> cost_;   // per point: its cheapest edge's cost (while in the heap)
-    std::vector<int32_t> from_;  // per point: that edge's reached end
+    std::vector<int32_t> from_;  // per point: its cheapest edge's reached end (while in the heap)
     std::vector<int32_t> slot_;  // per point: its place in heap_, -1 when not there
-    std::vector<int32_t> heap_;  // points, cheapest edge first
+    std::vector<Entry> heap_;    // points, cheapest edge first
   };
 
   const Points& pts_;
@@ -550,8 +560,9 @@ void turn_outward(const Points& pts, Normals& guide, const std::vector<int32_t>&
 /// One tree per component not yet reached, grown from its highest point (its guide turned to
 /// +z: outward on a closed surface), then turned outward (OrientOptions::outward_vote).
 void grow_from_tops(Prim& prim, const Points& pts, Normals& guide, const OrientOptions& options) {
-  std::vector<int32_t> order(static_cast<size_t>(pts.rows()));
-  std::iota(order.begin(), order.end(), 0);
+  std::vector<int32_t> order;  // the points not reached yet (the others would be skipped)
+  for (int32_t i = 0; i < int32_t(pts.rows()); ++i)
+    if (!prim.visited(i)) order.push_back(i);
   std::stable_sort(order.begin(), order.end(),
                    [&](int32_t a, int32_t b) { return pts(a, 2) > pts(b, 2); });
   std::vector<int32_t> members;
@@ -571,25 +582,29 @@ void grow_from_tops(Prim& prim, const Points& pts, Normals& guide, const OrientO
 std::vector<uint8_t> copy_signs(const Points& pts, const Normals& guide,
                                 const detail::InsideOutside* sides,
                                 const std::vector<int64_t>& used, Normals& normals,
-                                OrientResult& res) {
+                                OrientResult& res, int threads) {
   const Eigen::Index m = pts.rows();
-  std::vector<uint8_t> oriented(static_cast<size_t>(m), 0);
-  for (Eigen::Index li = 0; li < m; ++li) {
-    const int64_t row = used[size_t(li)];
-    double d = normals.row(row).dot(guide.row(li));
+  std::vector<int8_t> sign(static_cast<size_t>(m), 0);  // +1 keep, -1 flip, 0 no sign
+  detail::parallel_for(m, threads, nullptr, [&](int64_t li) {
+    const auto n = normals.row(used[size_t(li)]);
+    double d = n.dot(guide.row(li));
     // A normal far from its guide (a sharp normal at an edge, where the guide is the bisector)
     // takes its own side from the flood fill where that decides.
-    if (sides && sides->voxel() > 0 && std::abs(d) < kOwnVoteCos * normals.row(row).norm()) {
-      const int8_t v = sides->vote(pts.row(li), normals.row(row).normalized());
+    if (sides && sides->voxel() > 0 && std::abs(d) < kOwnVoteCos * n.norm()) {
+      const int8_t v = sides->vote(pts.row(li), n.normalized());
       if (v != 0) d = double(v);
     }
-    if (!(d != 0)) {
+    sign[size_t(li)] = int8_t(d > 0 ? 1 : d < 0 ? -1 : 0);  // NaN: no sign
+  });
+  std::vector<uint8_t> oriented(static_cast<size_t>(m), 0);
+  for (Eigen::Index li = 0; li < m; ++li) {
+    if (sign[size_t(li)] == 0) {
       ++res.unoriented;
       continue;
     }
     oriented[size_t(li)] = 1;
-    if (d < 0) {
-      normals.row(row) *= -1.0;
+    if (sign[size_t(li)] < 0) {
+      normals.row(used[size_t(li)]) *= -1.0;
       ++res.flipped;
     }
   }
@@ -626,7 +641,7 @@ std::vector<uint8_t> orient_mst(const Points& points, Normals& normals,
   grow_from_tops(prim, pts, guide, options);
   progress.throw_if_cancelled();
 
-  return copy_signs(pts, guide, sides.get(), used, normals, res);
+  return copy_signs(pts, guide, sides.get(), used, normals, res, options.run.threads);
 }
 
 /// MST orientation with exact duplicates seen once: k copies of a position would form their
