@@ -180,9 +180,7 @@ void add_precision_option(CLI::App* sub, std::string& precision) {
 }
 
 std::string parse_precision(const std::string& precision) {
-  if (!nhnet::valid_precision(precision))
-    throw nhnet::InvalidOptions("--precision must be auto, float32 or bfloat16, got '" + precision +
-                                "'");
+  nhnet::check_precision(precision, "--precision");
   return precision;
 }
 

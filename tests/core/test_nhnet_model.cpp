@@ -133,6 +133,17 @@ TEST(NhNetModel, RunsInBfloat16NearFloat32) {
   EXPECT_THROW(NhNetModel(kData + "nhnet_tiny.pt", "cpu", 1, "float16"), InvalidOptions);
 }
 
+// A wrong precision's message names the setting, the value and every valid one (kPrecisions).
+TEST(NhNetModel, PrecisionErrorListsTheValidValues) {
+  for (const char* p : kPrecisions) EXPECT_NO_THROW(check_precision(p, "--precision"));
+  try {
+    check_precision("float16", "--precision");
+    FAIL() << "float16 was accepted";
+  } catch (const InvalidOptions& e) {
+    EXPECT_STREQ(e.what(), "--precision must be auto, float32 or bfloat16, got 'float16'");
+  }
+}
+
 // The shipped model names the layers bfloat16 casts (bfloat16_modules): only the branches' first
 // two layers run in bfloat16, the matrices, the gathering MLP and the residual stay float32. On a
 // noisy sphere's descriptors its normals then stay within 0.05 degree of float32's on average

@@ -165,12 +165,11 @@ std::vector<std::string> names(const std::string& array) {
 }
 
 /// Casts the network to `dtype` for ModelOptions::precision. A model whose metadata names its
-/// "bfloat16_modules" (nhnet-export since v7's re-export) casts only those, and its forward feeds
-/// them in their dtype and takes their output back to float32, so the descriptors go in as
-/// float32 (`dtype` becomes float32 here); an older model casts whole, its input with it.
-void to_low_precision(torch::jit::Module& module, const std::string& meta, torch::ScalarType& dtype,
-                      const std::string& path) {
-  const std::vector<std::string> parts = names(json_value(meta, "bfloat16_modules"));
+/// "bfloat16_modules" (`parts`; nhnet-export since v7's re-export) casts only those, and its
+/// forward feeds them in their dtype and takes their output back to float32, so the descriptors
+/// go in as float32 (`dtype` becomes float32 here); an older model casts whole, its input with it.
+void to_low_precision(torch::jit::Module& module, const std::vector<std::string>& parts,
+                      torch::ScalarType& dtype, const std::string& path) {
   if (parts.empty()) {
     module.to(dtype);
     return;
@@ -186,12 +185,11 @@ void to_low_precision(torch::jit::Module& module, const std::string& meta, torch
 }
 
 /// ModelOptions::precision for this device and model: "auto" is bfloat16 on a CPU with
-/// AVX512-BF16 for a model that names its bfloat16_modules (where bfloat16 is both faster and
-/// as accurate), else float32; the others as they are.
+/// AVX512-BF16 for a model that names its bfloat16_modules (`named`; where bfloat16 is both
+/// faster and as accurate), else float32; the others as they are.
 std::string resolved_precision(const std::string& precision, const std::string& device,
-                               const std::string& meta) {
+                               bool named) {
   if (precision != "auto") return precision;
-  const bool named = !names(json_value(meta, "bfloat16_modules")).empty();
   return device == "cpu" && named && cpu_has_bfloat16() ? "bfloat16" : "float32";
 }
 
@@ -223,8 +221,7 @@ NhNetModel::NhNetModel(const std::string& path, const std::string& device, int t
     : impl_(std::make_unique<Impl>()) {
   if (device != "auto" && device != "cpu" && device != "cuda")
     throw InvalidOptions("device must be auto, cpu or cuda, got '" + device + "'");
-  if (!valid_precision(precision))
-    throw InvalidOptions("precision must be auto, float32 or bfloat16, got '" + precision + "'");
+  check_precision(precision, "precision");
   if (threads < 0) throw InvalidOptions("threads must be >= 0");
   const bool cuda = torch::cuda::is_available();
   if (device == "cuda" && !cuda)
@@ -249,10 +246,10 @@ NhNetModel::NhNetModel(const std::string& path, const std::string& device, int t
   impl_->meta = extra["nhnet.json"];
   impl_->descriptor_version = check_metadata(impl_->meta, path);
   impl_->module.eval();
-  impl_->precision = resolved_precision(precision, impl_->device, impl_->meta);
+  const std::vector<std::string> low = names(json_value(impl_->meta, "bfloat16_modules"));
+  impl_->precision = resolved_precision(precision, impl_->device, !low.empty());
   impl_->dtype = impl_->precision == "bfloat16" ? torch::kBFloat16 : torch::kFloat32;
-  if (impl_->dtype != torch::kFloat32)
-    to_low_precision(impl_->module, impl_->meta, impl_->dtype, path);
+  if (impl_->dtype != torch::kFloat32) to_low_precision(impl_->module, low, impl_->dtype, path);
   at::set_num_threads(threads > 0 ? threads : std::max(1, omp_get_max_threads()));
   // The most prepared module that runs: a model the passes cannot handle runs as it was loaded,
   // and oneDNN's optimised convolutions refuse bfloat16 on CPUs without AVX-512, where the

@@ -2,7 +2,10 @@
 // whether the CPU has what "auto" needs. Built with or without libtorch.
 #include "nhnet/learned/nhnet_model.hpp"
 
+#include "nhnet/errors.hpp"
+
 #include <algorithm>
+#include <cstddef>
 
 namespace nhnet {
 
@@ -18,6 +21,14 @@ bool cpu_has_bfloat16() {
 bool valid_precision(const std::string& precision) {
   return std::any_of(kPrecisions.begin(), kPrecisions.end(),
                      [&](const char* p) { return precision == p; });
+}
+
+void check_precision(const std::string& precision, const std::string& what) {
+  if (valid_precision(precision)) return;
+  std::string list;
+  for (size_t i = 0; i < kPrecisions.size(); ++i)
+    list += std::string(i == 0 ? "" : i + 1 == kPrecisions.size() ? " or " : ", ") + kPrecisions[i];
+  throw InvalidOptions(what + " must be " + list + ", got '" + precision + "'");
 }
 
 }  // namespace nhnet

@@ -36,6 +36,10 @@ inline constexpr std::array<const char*, 3> kPrecisions = {"auto", "float32", "b
 /// Whether `precision` is one of kPrecisions.
 bool valid_precision(const std::string& precision);
 
+/// Throws InvalidOptions "<what> must be auto, float32 or bfloat16, got '<precision>'" (the list
+/// from kPrecisions) unless valid_precision(precision); `what` names the setting to the user.
+void check_precision(const std::string& precision, const std::string& what);
+
 /// Whether this CPU has AVX512-BF16, the dot products oneDNN's bfloat16 kernels run on (every
 /// CPU with AMX has them); elsewhere bfloat16 runs slower than float32.
 bool cpu_has_bfloat16();
