@@ -39,7 +39,7 @@ Eigen::Vector3d jet_row(const Points& points, const int32_t* idx, int k, const E
     const Eigen::Vector3d q = offsets[size_t(j)] / s;
     sys.add(q.dot(a), q.dot(b), q.dot(n));
   }
-  const Eigen::LDLT<Eigen::Matrix<double, 6, 6>> ldlt(sys.ata);
+  const Eigen::LDLT<Eigen::Matrix<double, 6, 6>> ldlt(sys.ata());
   // A pivot far below the largest: the neighbours do not span a quadric (collinear, too few).
   const auto d = ldlt.vectorD().cwiseAbs();
   if (ldlt.info() != Eigen::Success || !(d.minCoeff() > 1e-10 * d.maxCoeff())) return nan;

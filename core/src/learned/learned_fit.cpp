@@ -133,8 +133,9 @@ Eigen::Vector3d weighted_jet(const Frame& fr, const float* w) {
     total += double(w[j]);
   }
   if (!(total > 0)) return Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
-  sys.ata.diagonal().array() += kFitRidge * total;
-  const Eigen::LDLT<Eigen::Matrix<double, 6, 6>> ldlt(sys.ata);
+  Eigen::Matrix<double, 6, 6> ata = sys.ata();
+  ata.diagonal().array() += kFitRidge * total;
+  const Eigen::LDLT<Eigen::Matrix<double, 6, 6>> ldlt(ata);
   const Eigen::Matrix<double, 6, 1> c = ldlt.solve(sys.atb);
   if (ldlt.info() != Eigen::Success || !c.allFinite())
     return Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
