@@ -290,12 +290,19 @@ Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor> NhNetModel::infer(
   if (run.progress && !run.progress(0.0, "nhnet")) throw Cancelled();
   for (size_t b = 0; b < rows.size(); b += size_t(batch)) {
     const size_t e = std::min(rows.size(), b + size_t(batch));
-    buf.resize((e - b) * size_t(d));
-    for (size_t r = b; r < e; ++r)
-      std::copy(features.row(rows[r]).data(), features.row(rows[r]).data() + d,
-                buf.data() + (r - b) * size_t(d));
-    torch::Tensor x = torch::from_blob(buf.data(), {int64_t(e - b), int64_t(d)}, torch::kFloat32)
-                          .to(impl_->dev, impl_->dtype);
+    // Consecutive rows (every row finite, the usual case) go in where they are (an exported
+    // model reads its input and never writes it); others are gathered into one block first.
+    const float* first = features.row(rows[b]).data();
+    if (rows[e - 1] - rows[b] != Eigen::Index(e - 1 - b)) {
+      buf.resize((e - b) * size_t(d));
+      for (size_t r = b; r < e; ++r)
+        std::copy(features.row(rows[r]).data(), features.row(rows[r]).data() + d,
+                  buf.data() + (r - b) * size_t(d));
+      first = buf.data();
+    }
+    torch::Tensor x =
+        torch::from_blob(const_cast<float*>(first), {int64_t(e - b), int64_t(d)}, torch::kFloat32)
+            .to(impl_->dev, impl_->dtype);
     torch::Tensor y =
         impl_->module.forward({x}).toTensor().to(torch::kCPU, torch::kFloat32).contiguous();
     if (y.dim() != 2 || y.size(0) != int64_t(e - b) || y.size(1) != 3)
