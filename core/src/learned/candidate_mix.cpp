@@ -6,6 +6,7 @@
 
 #include "geometry/mfps_blend.hpp"
 #include "nhnet/errors.hpp"
+#include "util/fast_math.hpp"
 #include "util/parallel.hpp"
 
 #include <Eigen/Geometry>
@@ -50,17 +51,21 @@ double line_angle(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
 
 /// Softmax weights of the candidates for features `f` under the fitted mix `m`.
 std::array<double, kMixCandidates> mix_weights(const Features& f, const MixWeights& m) {
-  std::array<double, kMixHidden> h1{}, h2{};
+  std::array<double, kMixHidden> z1{}, h1{}, z2{}, h2{};
+  Features standard;  // once, not once per hidden unit
+  for (size_t q = 0; q < kMixFeatures; ++q) standard[q] = (f[q] - m.mean[q]) / m.scale[q];
   for (size_t j = 0; j < kMixHidden; ++j) {
     double z = m.b1[j];
-    for (size_t q = 0; q < kMixFeatures; ++q) z += m.w1[j][q] * (f[q] - m.mean[q]) / m.scale[q];
-    h1[j] = std::tanh(z);
+    for (size_t q = 0; q < kMixFeatures; ++q) z += m.w1[j][q] * standard[q];
+    z1[j] = z;
   }
+  detail::tanh_batch(z1.data(), h1.data(), kMixHidden);
   for (size_t j = 0; j < kMixHidden; ++j) {
     double z = m.b2[j];
     for (size_t q = 0; q < kMixHidden; ++q) z += m.w2[j][q] * h1[q];
-    h2[j] = std::tanh(z);
+    z2[j] = z;
   }
+  detail::tanh_batch(z2.data(), h2.data(), kMixHidden);
   std::array<double, kMixCandidates> w{};
   double top = -std::numeric_limits<double>::infinity(), sum = 0;
   for (size_t c = 0; c < kMixCandidates; ++c) {
