@@ -78,8 +78,14 @@ Prepared prepare(const NormalsSettings& s) {
     p.warnings << "scales are ignored by the pca method";
   if (!s.model.isEmpty() && !uses_model(p.options.method))
     p.warnings << QString("model file ignored: method %1 uses no model").arg(s.method);
-  if (uses_model(p.options.method))
+  const QString precision = s.precision.trimmed().toLower();
+  nhnet::check_precision(str(precision), "precision");
+  if (precision != nhnet::ModelOptions{}.precision.c_str() && !uses_model(p.options.method))
+    p.warnings << QString("precision ignored: method %1 uses no model").arg(s.method);
+  if (uses_model(p.options.method)) {
     p.options.model.path = str(s.model.trimmed());  // empty = shipped
+    p.options.model.precision = str(precision);
+  }
   if (!s.fallback_why.isEmpty() && p.options.method != nhnet::Method::NhNet)
     p.warnings << QString("method %1 (%2; method nhnet needs it)")
                       .arg(nhnet::to_string(p.options.method), s.fallback_why);
@@ -243,10 +249,18 @@ QString describe_orientation(nhnet::OrientMode mode, const std::string& source,
 }
 
 QString describe(const nhnet::EstimateResult& res, nhnet::Method method, Eigen::Index n) {
-  return QString("%1 points, %2 failed, method %3, k %4, scales %5, noise ratio %6, %7 candidates")
+  // The network's device and arithmetic, as nhnet-cli's summary names them.
+  const QString ran = res.device_used.empty()
+                          ? QString()
+                          : QString(" on %1 in %2")
+                                .arg(QString::fromStdString(res.device_used),
+                                     QString::fromStdString(res.precision_used));
+  return QString(
+             "%1 points, %2 failed, method %3%4, k %5, scales %6, noise ratio %7, %8 candidates")
       .arg(n)
       .arg(res.failed)
       .arg(nhnet::to_string(method))
+      .arg(ran)
       .arg(res.k_used)
       .arg(join(res.scales_used))
       .arg(res.noise_ratio, 0, 'g', 3)
@@ -258,7 +272,8 @@ QString describe(const nhnet::EstimateResult& res, nhnet::Method method, Eigen::
 NormalsSettings::NormalsSettings()
     : scales(scales_text(nhnet::MfpsOptions{}.scales)),
       orient(nhnet::kDefaultOrientMode),
-      threads(nhnet::EstimateOptions{}.run.threads) {
+      threads(nhnet::EstimateOptions{}.run.threads),
+      precision(QString::fromStdString(nhnet::ModelOptions{}.precision)) {
   method = default_method_name(&fallback_why);  // fallback_why is constructed by now
   const Eigen::Vector3d vp = nhnet::OrientOptions{}.viewpoint;
   viewpoint = {{vp.x(), vp.y(), vp.z()}};
@@ -300,6 +315,12 @@ nhnet::OrientMode orient_from_string(const QString& name) {
     throw nhnet::InvalidOptions("unknown orientation '" + str(name) + "' (expected " +
                                 str(orient_names().join(", ")) + ")");
   return kOrients[i];
+}
+
+QStringList precision_names() {
+  QStringList out;
+  for (const char* p : nhnet::kPrecisions) out << p;
+  return out;
 }
 
 bool method_uses_model(const QString& name) {

@@ -64,6 +64,8 @@ bool normals_option(ccCommandLineInterface& cmd, const QString& name, NormalsSet
     s.threads = take_number<int>(cmd, "THREADS");
   } else if (name == "MODEL") {
     s.model = take_value(cmd, "MODEL");
+  } else if (name == "PRECISION") {
+    s.precision = take_value(cmd, "PRECISION");
   } else {
     return false;
   }

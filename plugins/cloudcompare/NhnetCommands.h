@@ -1,7 +1,7 @@
 // Command-line commands of the plugin (CloudCompare -SILENT ... ):
 //   -NHNET_NORMALS [-METHOD mfps|pca] [-SCALES auto|50,100,150]
 //                  [-ORIENT auto|keep|none|mst|viewpoint X Y Z]
-//                  [-THREADS n] [-MODEL path]
+//                  [-THREADS n] [-MODEL path] [-PRECISION auto|float32|bfloat16]
 //   -NHNET_DENOISE [-ITERATIONS n] [-RADIUS r] [-NORMALS auto|input|mfps|pca] [-SCALES ..]
 //   [-THREADS n]
 // Both work on every loaded cloud, in place, and save them (suffix NHNET_NORMALS / NHNET_DENOISED)

@@ -14,7 +14,8 @@ class QSpinBox;
 
 namespace nhcc {
 
-/// "Estimate normals (NH-Net)": method, scales, orientation (+ viewpoint), threads, model file.
+/// "Estimate normals (NH-Net)": method, scales, orientation (+ viewpoint), threads, model file,
+/// the model's precision.
 class EstimateDialog : public QDialog {
   Q_OBJECT
  public:
@@ -31,6 +32,7 @@ class EstimateDialog : public QDialog {
   QSpinBox* threads_;
   QLineEdit* model_;
   QPushButton* browse_;
+  QComboBox* precision_;
 };
 
 /// "Normal-guided denoise": iterations, radius, which normals (the cloud's or estimated).

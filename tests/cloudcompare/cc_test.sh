@@ -92,6 +92,30 @@ case_nhnet_matches_cli() {
   "$PY" "$COMPARE" cc.ply cli.ply --max-deg 0.25 --mean-deg 0.1 || fail "normals differ from the CLI's"
 }
 
+# -PRECISION reaches the core: the summary names the arithmetic that ran, as nhnet-cli's does.
+# float32 and bfloat16 are both checked, so an ignored option fails on any CPU (auto is bfloat16
+# on one with AVX512-BF16, float32 elsewhere). The normals equal nhnet-cli's with the same
+# --precision within the quantisation bound above.
+case_precision() {
+  head -n 2000 "$SAMPLE" >small.xyz
+  local p
+  for p in float32 bfloat16; do
+    cc -O small.xyz -NHNET_NORMALS -METHOD nhnet -PRECISION "$p" -ORIENT none -SAVE_CLOUDS FILE cc.ply
+    expect_rc 0
+    log_has "method nhnet on cpu in $p,"
+    "$CLI" estimate cc.ply cli.ply --method nhnet --precision "$p" --orient none --quiet --overwrite ||
+      fail "nhnet-cli failed"
+    "$PY" "$COMPARE" cc.ply cli.ply --max-deg 0.25 --mean-deg 0.1 || fail "$p normals differ from the CLI's"
+  done
+  cc -O small.xyz -NHNET_NORMALS -METHOD nhnet -PRECISION half -SAVE_CLOUDS FILE bad.ply
+  expect_rc 1
+  log_has "precision must be auto, float32 or bfloat16, got 'half'"
+  [[ ! -e bad.ply ]] || fail "bad.ply written despite the error"
+  cc -O small.xyz -NHNET_NORMALS -METHOD mfps -PRECISION float32 -ORIENT none
+  expect_rc 0
+  log_has "precision ignored: method mfps uses no model"
+}
+
 # Default options (no -METHOD / -ORIENT) equal nhnet-cli's defaults (no flags) on the same
 # points: the same method (the core's default_method: nhnet with the shipped model, else mfps
 # with the CLI's warning) and the same orientation (auto: here MST, the cloud has no normals and
@@ -106,8 +130,10 @@ case_defaults_and_autosave() {
   cc -O pts.ply -NHNET_NORMALS -SAVE_CLOUDS FILE cc.ply
   expect_rc 0
   "$CLI" estimate pts.ply cli.ply --report report.json 2>cli_err.txt || fail "nhnet-cli failed"
+  # The CLI's method, and for nhnet its device and precision (the same core default, auto).
   local method
-  method=$("$PY" -c 'import json, sys; print(json.load(open(sys.argv[1]))["method"])' report.json)
+  method=$("$PY" -c 'import json, sys; r = json.load(open(sys.argv[1]))
+print(r["method"] + (" on %s in %s" % (r["device"], r["precision"]) if r["method"] == "nhnet" else ""))' report.json)
   log_has "method $method,"
   log_has "orient mst from no sensor in the file: MST"
   if grep -q "warning: method mfps" cli_err.txt; then log_has "method mfps ("; fi

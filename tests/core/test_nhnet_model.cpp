@@ -240,6 +240,12 @@ TEST(NhNetModel, EstimateWithModelGivesUnitNormals) {
   o.model.device = "cpu";
   const EstimateResult r = estimate_normals(g.points, o);
   EXPECT_EQ(r.device_used, "cpu");
+  // The tiny model names no bfloat16 layers: auto resolves to float32 on every CPU; asked for,
+  // bfloat16 is what runs (and is reported).
+  EXPECT_EQ(r.precision_used, "float32");
+  EstimateOptions low = o;
+  low.model.precision = "bfloat16";
+  EXPECT_EQ(estimate_normals(g.points, low).precision_used, "bfloat16");
   EXPECT_EQ(r.failed, 0);
   for (Eigen::Index i = 0; i < r.normals.rows(); ++i)
     EXPECT_NEAR(r.normals.row(i).norm(), 1.0, 1e-9);

@@ -173,5 +173,6 @@ TEST(Tiling, NhNetTilesEqualTheUntiledRun) {
   EXPECT_EQ(tiled.tiles, 3);
   EXPECT_EQ(tiled.descriptor_k, whole.descriptor_k);
   EXPECT_EQ(tiled.device_used, "cpu");
+  EXPECT_EQ(tiled.precision_used, "float32");
   EXPECT_LT(share_differing(tiled, whole, 1e-3), 0.005);
 }

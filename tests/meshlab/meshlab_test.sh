@@ -41,9 +41,9 @@ mls() { "$T/ml/meshlabserver" "$@" >"$T/last.log" 2>&1; }
 
 # An .mlx script running "Estimate normals (NH-Net)". meshlabserver needs every parameter, in
 # the filter's order (it asserts otherwise), and enum_cardinality on enums.
-# estimate_mlx METHOD K SCALES ORIENTATION [MODEL [VIEWPOINT]]  (method 0 = MFPS, 1 = PCA,
-# 2 = NH-Net; orientation 0 = keep, 1 = viewpoint (default the origin), 2 = MST, 3 = none,
-# 4 = auto, 5 = up)
+# estimate_mlx METHOD K SCALES ORIENTATION [MODEL [VIEWPOINT [PRECISION]]]  (method 0 = MFPS,
+# 1 = PCA, 2 = NH-Net; orientation 0 = keep, 1 = viewpoint (default the origin), 2 = MST,
+# 3 = none, 4 = auto, 5 = up; precision 0 = auto, 1 = float32, 2 = bfloat16)
 estimate_mlx() {
   local vp=${6:-}
   [[ -n $vp ]] || vp='x="0" y="0" z="0"'
@@ -58,6 +58,7 @@ estimate_mlx() {
    <Param type="RichInt" name="threads" value="0"/>
    <Param type="RichInt" name="seed" value="1"/>
    <Param type="RichString" name="model" value="${5:-}"/>
+   <Param type="RichEnum" name="precision" value="${7:-0}" enum_cardinality="3"/>
   </filter>
 MLX
 }
@@ -131,6 +132,10 @@ ml_run() {
 "$CLI" estimate in.ply cli_def.ply --quiet --overwrite --report cli_def.json
 want=$(sed -nE 's/.*"method": *"([a-z]+)".*/\1/p' cli_def.json | head -n 1)
 case $want in mfps) default_index=0 ;; pca) default_index=1 ;; *) default_index=2 ;; esac
+# For nhnet the log names the device and precision as the CLI's report does (auto, made concrete).
+if [[ $want == nhnet ]]; then
+  want="nhnet on $(sed -nE 's/.*"device": *"([a-z]+)".*/\1/p' cli_def.json | head -n 1) in $(sed -nE 's/.*"precision": *"([a-z0-9]+)".*/\1/p' cli_def.json | head -n 1)"
+fi
 if ml_run in.ply ml_def.ply; then
   grep 'NH-Net:' last.log || true
   if grep -q "method $want," last.log && grep -q "orientation mst from no sensor in the file" last.log &&
@@ -142,6 +147,26 @@ if ml_run in.ply ml_def.ply; then
 else
   fail "ml_run with the defaults exited $?"; cat last.log
 fi
+
+# 2b'. The precision parameter reaches the core: the log names the arithmetic that ran and the
+# normals are nhnet-cli's with the same --precision (bound as in 2). float32 and bfloat16 are
+# both checked, so an ignored parameter fails on any CPU (auto is bfloat16 where the CPU has
+# AVX512-BF16, float32 elsewhere).
+for idx in 1 2; do
+  name=$([[ $idx == 1 ]] && echo float32 || echo bfloat16)
+  estimate_mlx 2 0 auto 3 "" "" "$idx" | script >prec.mlx
+  if mls -i in.ply -o ml_prec.ply -m vn -s prec.mlx && grep -q "method nhnet on cpu in $name," last.log; then
+    "$CLI" estimate in.ply cli_prec.ply --method nhnet --precision "$name" --orient none --quiet --overwrite
+    rms=$("$CLI" eval ml_prec.ply cli_prec.ply --json | sed -E 's/.*"rms_deg": *([0-9.eE+-]+).*/\1/')
+    if awk -v r="$rms" 'BEGIN { exit !(r < 0.01) }'; then
+      pass "precision $name: the log names it; plugin vs nhnet-cli --precision $name RMS $rms deg"
+    else
+      fail "precision $name: plugin vs nhnet-cli RMS $rms deg (>= 0.01)"
+    fi
+  else
+    fail "precision $name: not run or not named in the log"; cat last.log
+  fi
+done
 
 # 2c. The default orientation uses the mesh's camera (the PLY camera element MeshLab reads into
 # the mesh's shot): a scan from inside a closed room, every normal must face the camera

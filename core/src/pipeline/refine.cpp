@@ -172,6 +172,7 @@ EstimateResult estimate_nhnet_rows(const Points& points, const EstimateOptions& 
                        moved.empty() ? nullptr : &moved, &table);
   EstimateResult res = std::move(in.geometry);
   res.device_used = loaded->device();
+  res.precision_used = loaded->precision();
   res.descriptor_k = in.k;
   // Blocks of points: memory stays bounded by the block (D floats per point) on top of the
   // neighbour table the geometry stage needs anyway. The block's stages (descriptor stages,

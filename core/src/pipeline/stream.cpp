@@ -470,6 +470,7 @@ void estimate_tiles(const TileRun& tr, TileSetup setup, StreamResult& res) {
       res.k_used = est.k_used;
       res.scales_used = est.scales_used;
       res.device_used = est.device_used;
+      res.precision_used = est.precision_used;
       first_tile = false;
     }
     for (const std::string& w : est.warnings)

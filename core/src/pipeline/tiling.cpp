@@ -204,6 +204,7 @@ void merge_tile(const EstimateResult& tr, const std::vector<int64_t>& rows, int3
     res.k_used = tr.k_used;
     res.scales_used = tr.scales_used;
     res.device_used = tr.device_used;
+    res.precision_used = tr.precision_used;
     res.descriptor_k = tr.descriptor_k;
   }
   for (const std::string& w : tr.warnings)

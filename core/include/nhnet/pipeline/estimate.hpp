@@ -117,9 +117,11 @@ struct EstimateResult {
   std::vector<int64_t> mfps_blend_rows;
   Eigen::MatrixXd mfps_blend_features;
   Normals mfps_unblended;
-  /// NH-Net only: the device the model ran on ("cpu" / "cuda") and the descriptor
+  /// NH-Net only: the device the model ran on ("cpu" / "cuda"), its arithmetic ("float32" /
+  /// "bfloat16": ModelOptions::precision resolved, "auto" made concrete) and the descriptor
   /// neighbourhood size.
   std::string device_used;
+  std::string precision_used;
   int descriptor_k = 0;
   /// Non-fatal notes for the user (clamped neighbourhoods, non-finite points, ...).
   std::vector<std::string> warnings;

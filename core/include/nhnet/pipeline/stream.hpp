@@ -51,6 +51,7 @@ struct StreamResult {
   double noise_ratio = 0;
   double spacing = 0;
   std::string device_used;
+  std::string precision_used;  ///< NH-Net only: as EstimateResult::precision_used
   /// Orientation used (Keep falls back to None when the input has no normals) and its counts
   /// (flipped / unoriented / invalid), summed over the written chunks.
   OrientMode orient_mode = OrientMode::None;
