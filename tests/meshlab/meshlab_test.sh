@@ -95,6 +95,16 @@ fi
 # the same doubles leaves only the rounding of the normals to float32 in the two PLY writers
 # (~1e-5 degrees), so 0.01 degrees RMS is strict.
 sample="$SRC/data/sample/fandisk_noise0.6.xyz"
+# within_cli LABEL PLUGIN_PLY CLI_PLY: the plugin's normals within 0.01 degree RMS of the CLI's.
+within_cli() {
+  local rms
+  rms=$("$CLI" eval "$2" "$3" --json | sed -E 's/.*"rms_deg": *([0-9.eE+-]+).*/\1/')
+  if awk -v r="$rms" 'BEGIN { exit !(r < 0.01) }'; then
+    pass "$1: plugin vs nhnet-cli RMS $rms deg (< 0.01)"
+  else
+    fail "$1: plugin vs nhnet-cli RMS $rms deg (>= 0.01)"
+  fi
+}
 same_as_cli() {
   head -n "$3" "$sample" | awk '{ l[n++] = $0 } END { print "ply\nformat ascii 1.0\nelement vertex " n;
        print "property float x\nproperty float y\nproperty float z\nend_header";
@@ -104,12 +114,7 @@ same_as_cli() {
   if mls -i in.ply -o ml.ply -m vn -s est.mlx; then
     grep 'NH-Net:' last.log || true
     "$CLI" estimate in.ply cli.ply --method "$1" --orient none --quiet --overwrite
-    rms=$("$CLI" eval ml.ply cli.ply --json | sed -E 's/.*"rms_deg": *([0-9.eE+-]+).*/\1/')
-    if awk -v r="$rms" 'BEGIN { exit !(r < 0.01) }'; then
-      pass "$1, $3 sample points: plugin vs nhnet-cli RMS $rms deg (< 0.01)"
-    else
-      fail "$1, $3 sample points: plugin vs nhnet-cli RMS $rms deg (>= 0.01)"
-    fi
+    within_cli "$1, $3 sample points" ml.ply cli.ply
   else
     fail "$1 estimate exited $?"; cat last.log
   fi
@@ -157,12 +162,7 @@ for idx in 1 2; do
   estimate_mlx 2 0 auto 3 "" "" "$idx" | script >prec.mlx
   if mls -i in.ply -o ml_prec.ply -m vn -s prec.mlx && grep -q "method nhnet on cpu in $name," last.log; then
     "$CLI" estimate in.ply cli_prec.ply --method nhnet --precision "$name" --orient none --quiet --overwrite
-    rms=$("$CLI" eval ml_prec.ply cli_prec.ply --json | sed -E 's/.*"rms_deg": *([0-9.eE+-]+).*/\1/')
-    if awk -v r="$rms" 'BEGIN { exit !(r < 0.01) }'; then
-      pass "precision $name: the log names it; plugin vs nhnet-cli --precision $name RMS $rms deg"
-    else
-      fail "precision $name: plugin vs nhnet-cli RMS $rms deg (>= 0.01)"
-    fi
+    within_cli "precision $name (named in the log)" ml_prec.ply cli_prec.ply
   else
     fail "precision $name: not run or not named in the log"; cat last.log
   fi
