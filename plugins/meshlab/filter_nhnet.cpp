@@ -73,13 +73,19 @@ int index_of(const Choice<T> (&choices)[N], T value) {
   return 0;
 }
 
+// The index chosen in enum parameter `name` of `count` entries; throws when out of range.
+size_t enum_index(const RichParameterList& par, const char* name, size_t count) {
+  const int i = par.getEnum(name);
+  if (i < 0 || size_t(i) >= count)
+    throw nhnet::InvalidOptions(std::string("parameter '") + name + "': choice " +
+                                std::to_string(i) + " out of range 0.." +
+                                std::to_string(count - 1));
+  return size_t(i);
+}
+
 template <typename T, size_t N>
 T choice(const Choice<T> (&choices)[N], const RichParameterList& par, const char* name) {
-  const int i = par.getEnum(name);
-  if (i < 0 || size_t(i) >= N)
-    throw nhnet::InvalidOptions(std::string("parameter '") + name + "': choice " +
-                                std::to_string(i) + " out of range 0.." + std::to_string(N - 1));
-  return choices[i].value;
+  return choices[enum_index(par, name, N)].value;
 }
 
 // The network's precisions (nhnet::kPrecisions, the core's one list, its default first), in
@@ -97,12 +103,7 @@ int precision_index(const std::string& precision) {
 }
 
 std::string precision_choice(const RichParameterList& par) {
-  const int i = par.getEnum("precision");
-  if (i < 0 || size_t(i) >= nhnet::kPrecisions.size())
-    throw nhnet::InvalidOptions("parameter 'precision': choice " + std::to_string(i) +
-                                " out of range 0.." +
-                                std::to_string(nhnet::kPrecisions.size() - 1));
-  return nhnet::kPrecisions[size_t(i)];
+  return nhnet::kPrecisions[enum_index(par, "precision", nhnet::kPrecisions.size())];
 }
 
 int non_negative(const RichParameterList& par, const char* name) {
