@@ -48,9 +48,10 @@ double leaf_ball(const FloatCloud& cloud, uint32_t a, uint32_t b, float* centre)
   return std::sqrt(rho2);
 }
 
-constexpr int kWidenings = 8;     // then the caller searches point by point
-constexpr float kWiden = 1.5f;    // radius factor per widening
-constexpr double kMargin = 1e-3;  // relative, on the candidates' radius: float rounding
+constexpr int kWidenings = 8;          // then the caller searches point by point
+constexpr float kWiden = 1.5f;         // radius factor per widening
+constexpr double kMargin = 1e-3;       // relative, on the candidates' radius: float rounding
+constexpr double kBoundMargin = 1e-4;  // relative, on next_bound's squared distance: the same
 
 }  // namespace
 
@@ -77,9 +78,22 @@ bool visits_before(const TreeShape& shape, const float* q, uint32_t a, uint32_t 
   return a < b;  // one leaf: in position order
 }
 
-bool LeafBatch::run(const Tree& tree, const FloatCloud& cloud, const TreeShape& shape, size_t leaf,
-                    int kk, float& radius) {
-  const uint32_t a = shape.leaf_start[leaf], b = shape.leaf_start[leaf + 1];
+namespace {
+
+/// The square of a bound on query q's kk-th distance from the previous query's (at qp, its
+/// kk-th squared distance far2): the previous query's kk nearest are candidates, and within
+/// sqrt(far2) + |q - qp| of q. Widened by kBoundMargin for the float distances; at most r2.
+float next_bound(const float* q, const float* qp, float far2, float r2) {
+  double s = 0;
+  for (int d = 0; d < 3; ++d) s += (double(q[d]) - qp[d]) * (double(q[d]) - qp[d]);
+  const double b = std::sqrt(double(far2)) + std::sqrt(s);
+  return float(std::min(double(r2), b * b * (1 + kBoundMargin)));
+}
+
+}  // namespace
+
+bool LeafBatch::run(const Tree& tree, const FloatCloud& cloud, const TreeShape& shape, uint32_t a,
+                    uint32_t b, int kk, float& radius) {
   kk_ = kk;
   idx_.resize(size_t(b - a) * size_t(kk));
   d2_.resize(idx_.size());
@@ -90,7 +104,11 @@ bool LeafBatch::run(const Tree& tree, const FloatCloud& cloud, const TreeShape& 
     gather(tree, cloud, centre, float(reach * reach));
     const float r2 = radius * radius;
     bool all = true;
-    for (uint32_t p = a; p < b && all; ++p) all = select(cloud, shape, p, r2, p - a);
+    for (uint32_t p = a; p < b && all; ++p) {
+      const float* q = &cloud.xyz[3 * size_t(p)];
+      const float bound2 = p == a ? r2 : next_bound(q, q - 3, distances(p - a - 1)[kk - 1], r2);
+      all = select(shape, q, r2, bound2, p - a);
+    }
     if (!all) continue;
     float far = 0;
     for (size_t t = 0; t < size_t(b - a); ++t) far = std::max(far, distances(t)[kk - 1]);
@@ -111,7 +129,8 @@ void LeafBatch::gather(const Tree& tree, const FloatCloud& cloud, const float* c
   y_.resize(n);
   z_.resize(n);
   dist_.resize(n);
-  bucket_.resize(n);
+  near_.resize(n);
+  near_d_.resize(n);
   for (size_t j = 0; j < n; ++j) {
     const uint32_t p = around_[j].first;
     pos_[j] = p;
@@ -121,15 +140,23 @@ void LeafBatch::gather(const Tree& tree, const FloatCloud& cloud, const float* c
   }
 }
 
-/// Query p (t-th of its leaf): its first kk candidates strictly within sqrt(r2) by (distance,
-/// visit) into row t; false when fewer than kk lie within. The candidates go straight into
-/// buckets of the distance over [0, r2) (bucket `buckets` for those outside), as FirstK.
-bool LeafBatch::select(const FloatCloud& cloud, const TreeShape& shape, uint32_t p, float r2,
-                       size_t t) {
-  const float* q = &cloud.xyz[3 * size_t(p)];
+/// The candidates whose distance is below lim into near_ / near_d_, in their order; their
+/// count. (Branch-free: every candidate is written, the count advances for those below.)
+size_t LeafBatch::keep_below(float lim) {
+  size_t c = 0;
+  for (size_t j = 0; j < dist_.size(); ++j) {
+    near_[c] = uint32_t(j);
+    near_d_[c] = dist_[j];
+    c += size_t(dist_[j] < lim);
+  }
+  return c;
+}
+
+/// Query q (the t-th of its leaf): its first kk candidates strictly within sqrt(r2) by
+/// (distance, visit) into row t; false when fewer than kk lie within. Only the candidates
+/// below bound2 (<= r2) are ordered when kk of them are: the kk nearest are then among them.
+bool LeafBatch::select(const TreeShape& shape, const float* q, float r2, float bound2, size_t t) {
   const size_t n = pos_.size();
-  const int buckets = FirstK::bucket_count(n);
-  const float scale = float(buckets) / r2;
   // Squared distances as nanoflann's L2_Simple_Adaptor computes them (float, the query minus
   // the point, summed x, y, z in that order), so that equal distances stay equal; on columns,
   // so that the loop vectorises.
@@ -141,17 +168,18 @@ bool LeafBatch::select(const FloatCloud& cloud, const TreeShape& shape, uint32_t
     d += dz * dz;
     dist_[j] = d;
   }
-  for (size_t j = 0; j < n; ++j) bucket_[j] = FirstK::bucket(dist_[j], r2, scale, buckets);
-  if (!order_.sort(dist_, bucket_, buckets, kk_)) return false;
-  order_.order_ties(dist_, kk_, [&](uint32_t u, uint32_t v) {
-    return visits_before(shape, q, pos_[u], pos_[v]);
+  size_t c = keep_below(bound2);
+  if (c < size_t(kk_) && bound2 < r2) c = keep_below(bound2 = r2);
+  if (!order_.sort(near_d_.data(), c, bound2, kk_)) return false;
+  order_.order_ties(near_d_.data(), kk_, [&](uint32_t u, uint32_t v) {
+    return visits_before(shape, q, pos_[near_[u]], pos_[near_[v]]);
   });
   uint32_t* idx = idx_.data() + t * size_t(kk_);
   float* d2 = d2_.data() + t * size_t(kk_);
   for (int j = 0; j < kk_; ++j) {
-    const uint32_t c = order_[size_t(j)];
-    idx[j] = pos_[c];
-    d2[j] = dist_[c];
+    const uint32_t m = order_[size_t(j)];
+    idx[j] = pos_[near_[m]];
+    d2[j] = near_d_[m];
   }
   return true;
 }

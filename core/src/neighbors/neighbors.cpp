@@ -136,21 +136,13 @@ template <class TreeT>
 bool knn_by_radius(const TreeT& tree, const float* q, int kk, float r2, uint32_t* idx, float* d2) {
   thread_local std::vector<std::pair<uint32_t, float>> found;
   thread_local std::vector<float> dist;
-  thread_local std::vector<int> bucket;
   thread_local detail::FirstK first;
   nanoflann::RadiusResultSet<float, uint32_t> set(r2, found);
   tree.findNeighbors(set, q, nanoflann::SearchParams(32, 0.f, false));
   const size_t n = found.size();
-  if (n < size_t(kk)) return false;
-  const int buckets = detail::FirstK::bucket_count(n);
-  const float scale = float(buckets) / r2;
   dist.resize(n);
-  bucket.resize(n);
-  for (size_t t = 0; t < n; ++t) {
-    dist[t] = found[t].second;
-    bucket[t] = detail::FirstK::bucket(dist[t], r2, scale, buckets);
-  }
-  if (!first.sort(dist, bucket, buckets, kk)) return false;
+  for (size_t t = 0; t < n; ++t) dist[t] = found[t].second;  // each below r2
+  if (!first.sort(dist.data(), n, r2, kk)) return false;
   for (int j = 0; j < kk; ++j) {
     idx[j] = found[first[size_t(j)]].first;
     d2[j] = dist[first[size_t(j)]];
@@ -271,7 +263,7 @@ void leaf_rows(const TreeView& impl, size_t leaf, int kk, float& radius, IndexMa
     knn_search(impl.tree, &impl.cloud.xyz[3 * size_t(a)], kk, idx.data(), d2.data());
     radius = std::sqrt(d2[size_t(kk) - 1]) * detail::LeafBatch::kNextGuess;
   }
-  if (radius > 0 && batch.run(impl.tree, impl.cloud, impl.shape, leaf, kk, radius)) {
+  if (radius > 0 && batch.run(impl.tree, impl.cloud, impl.shape, a, b, kk, radius)) {
     for (uint32_t p = a; p < b; ++p)
       write_row(impl.original, p, kk, batch.indices(p - a), batch.distances(p - a),
                 Eigen::Index(impl.original[p]), indices, sq_distances);
