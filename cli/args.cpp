@@ -171,10 +171,8 @@ void add_threads_option(CLI::App* sub, std::string& threads) {
 
 void add_precision_option(CLI::App* sub, std::string& precision) {
   sub->add_option("--precision", precision,
-                  "NH-Net arithmetic: auto | float32 | bfloat16. bfloat16: ~1.8x the network's "
-                  "speed on CPUs with AVX512-BF16 or AMX, slower on others, normals within "
-                  "~0.01 degree; auto: bfloat16 where the CPU has AVX512-BF16 and the model "
-                  "supports it, else float32; float32: the same normals on every machine " +
+                  std::string("NH-Net arithmetic: auto | float32 | bfloat16. ") +
+                      nhnet::kPrecisionHelp + " " +
                       default_note(nhnet::EstimateOptions{}.model.precision))
       ->type_name("P");
 }

@@ -87,7 +87,7 @@ void print_estimate_line(const EstimateSummary& s) {
   std::ostringstream line;
   line << "nhnet-cli: " << s.points << " points, " << s.failed << " failed, method "
        << nhnet::to_string(s.method)
-       << (nhnet ? " on " + s.device + " in " + s.precision : std::string()) << ", k " << s.k
+       << (nhnet ? nhnet::network_phrase(s.device, s.precision) : std::string()) << ", k " << s.k
        << ", scales " << (s.scales.empty() ? std::string("-") : join(s.scales, "/"))
        << ", noise ratio " << noise << ", " << s.candidates << " candidates" << tiles << ", orient "
        << orient_summary(s.orient, s.orient_source, s.orient_result) << ", " << secs

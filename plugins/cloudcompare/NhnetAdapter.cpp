@@ -249,12 +249,8 @@ QString describe_orientation(nhnet::OrientMode mode, const std::string& source,
 }
 
 QString describe(const nhnet::EstimateResult& res, nhnet::Method method, Eigen::Index n) {
-  // The network's device and arithmetic, as nhnet-cli's summary names them.
-  const QString ran = res.device_used.empty()
-                          ? QString()
-                          : QString(" on %1 in %2")
-                                .arg(QString::fromStdString(res.device_used),
-                                     QString::fromStdString(res.precision_used));
+  const QString ran =
+      QString::fromStdString(nhnet::network_phrase(res.device_used, res.precision_used));
   return QString(
              "%1 points, %2 failed, method %3%4, k %5, scales %6, noise ratio %7, %8 candidates")
       .arg(n)
@@ -315,12 +311,6 @@ nhnet::OrientMode orient_from_string(const QString& name) {
     throw nhnet::InvalidOptions("unknown orientation '" + str(name) + "' (expected " +
                                 str(orient_names().join(", ")) + ")");
   return kOrients[i];
-}
-
-QStringList precision_names() {
-  QStringList out;
-  for (const char* p : nhnet::kPrecisions) out << p;
-  return out;
 }
 
 bool method_uses_model(const QString& name) {

@@ -44,9 +44,6 @@ QString default_method_name(QString* fallback_why = nullptr);
 /// Whether the named method reads a model file (NormalsSettings::model).
 bool method_uses_model(const QString& name);
 
-/// The network's precisions (nhnet::kPrecisions, the core's list; its default first).
-QStringList precision_names();
-
 /// Settings of "Estimate normals (NH-Net)" / -NHNET_NORMALS. Defaults are the core's.
 struct NormalsSettings {
   /// Estimator, one of method_names() (default: the core's, default_method_name()).
@@ -64,7 +61,7 @@ struct NormalsSettings {
   int threads;
   /// TorchScript model file for the learned method; empty = the installed default model.
   QString model;
-  /// The learned method's arithmetic, one of precision_names() (default: the core's, auto).
+  /// The learned method's arithmetic, one of nhnet::kPrecisions (default: the core's, auto).
   QString precision;
 
   NormalsSettings();

@@ -1,6 +1,8 @@
 // Parameter dialogs of the plugin (see NhnetDialogs.h). Widgets only: checks happen in the adapter.
 #include "NhnetDialogs.h"
 
+#include "../common/precision_list.hpp"
+
 #include <QComboBox>
 #include <QDialogButtonBox>
 #include <QDoubleSpinBox>
@@ -23,6 +25,15 @@ QSpinBox* threads_box(int value, QWidget* parent) {
   box->setRange(0, 1024);
   box->setSpecialValueText("all cores");
   box->setValue(value);
+  return box;
+}
+
+/// The network's precision (nhnet::kPrecisions), `value` selected.
+QComboBox* precision_box(const QString& value, QWidget* parent) {
+  auto* box = new QComboBox(parent);
+  box->addItems(nhplugin::precision_list());
+  box->setCurrentText(value);
+  box->setToolTip(nhplugin::precision_help());
   return box;
 }
 
@@ -96,14 +107,7 @@ EstimateDialog::EstimateDialog(const NormalsSettings& initial, QWidget* parent) 
   });
   form->addRow("Model file", modelRow);
 
-  precision_ = new QComboBox(this);
-  precision_->addItems(precision_names());
-  precision_->setCurrentText(initial.precision);
-  precision_->setToolTip(
-      "The network's arithmetic. auto: bfloat16 where the CPU has AVX512-BF16 and the model "
-      "supports it, else float32. float32: the same normals on every machine. bfloat16: ~1.8x "
-      "the network's speed on CPUs with AVX512-BF16 or AMX, slower on others; normals within "
-      "~0.01 degree.");
+  precision_ = precision_box(initial.precision, this);
   form->addRow("Precision", precision_);
 
   connect(method_, &QComboBox::currentTextChanged, this, [this] { updateEnabled(); });
@@ -160,6 +164,15 @@ DenoiseDialog::DenoiseDialog(const DenoiseSettings& initial, QWidget* parent)
   normals_->setCurrentIndex(at < 0 ? 0 : at);
   form->addRow("Normals", normals_);
 
+  // The precision of the network that estimates the normals (method nhnet only).
+  precision_ = precision_box(initial.estimate.precision, this);
+  form->addRow("Precision", precision_);
+  const auto enable = [this] {
+    precision_->setEnabled(method_uses_model(normals_->currentData().toString()));
+  };
+  connect(normals_, QOverload<int>::of(&QComboBox::currentIndexChanged), this, enable);
+  enable();
+
   threads_ = threads_box(initial.estimate.threads, this);
   form->addRow("Threads", threads_);
   finish(this, form);
@@ -171,6 +184,7 @@ DenoiseSettings DenoiseDialog::settings() const {
   s.radius = radius_->value();
   s.normals = normals_->currentData().toString();
   s.estimate.threads = threads_->value();
+  s.estimate.precision = precision_->currentText();
   return s;
 }
 

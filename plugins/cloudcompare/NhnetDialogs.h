@@ -35,7 +35,8 @@ class EstimateDialog : public QDialog {
   QComboBox* precision_;
 };
 
-/// "Normal-guided denoise": iterations, radius, which normals (the cloud's or estimated).
+/// "Normal-guided denoise": iterations, radius, which normals (the cloud's or estimated), and
+/// the network's precision when they are estimated by nhnet.
 class DenoiseDialog : public QDialog {
   Q_OBJECT
  public:
@@ -47,6 +48,7 @@ class DenoiseDialog : public QDialog {
   QSpinBox* iterations_;
   QDoubleSpinBox* radius_;
   QComboBox* normals_;
+  QComboBox* precision_;
   QSpinBox* threads_;
 };
 

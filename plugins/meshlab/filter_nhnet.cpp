@@ -4,6 +4,7 @@
 #include "filter_nhnet.h"
 
 #include "../common/polled_run.hpp"
+#include "../common/precision_list.hpp"
 #include "nhnet/denoise/denoise.hpp"
 #include "nhnet/errors.hpp"
 #include "nhnet/io/cloud.hpp"
@@ -90,12 +91,6 @@ T choice(const Choice<T> (&choices)[N], const RichParameterList& par, const char
 
 // The network's precisions (nhnet::kPrecisions, the core's one list, its default first), in
 // menu order; scripts name them by index.
-QStringList precision_labels() {
-  QStringList l;
-  for (const char* p : nhnet::kPrecisions) l << p;
-  return l;
-}
-
 int precision_index(const std::string& precision) {
   for (size_t i = 0; i < nhnet::kPrecisions.size(); ++i)
     if (precision == nhnet::kPrecisions[i]) return int(i);
@@ -263,7 +258,8 @@ QString NhnetFilterPlugin::filterInfo(FilterIDType filter) const {
              "Sec. 7, Eq. 9): along the normal on smooth parts, onto the edge line near sharp "
              "edges, with neighbourhoods fixed over the iterations so points do not pile up. "
              "Guided by the current vertex normals (their sign does not matter) or by normals "
-             "estimated first with MFPS (then also stored as the vertex normals). Vertices "
+             "estimated first with the default method (then also stored as the vertex normals). "
+             "Vertices "
              "without a usable normal stay in place." +
              cite;
   }
@@ -341,13 +337,9 @@ void NhnetFilterPlugin::initParameterSet(QAction* action, MeshModel& m, RichPara
       par.addParam(RichString("model", QString::fromStdString(e.model.path), "NH-Net model file",
                               "TorchScript model written by nhnet-export; empty = the shipped "
                               "model installed with nhnet. Used by the NH-Net method only."));
-      par.addParam(RichEnum("precision", precision_index(e.model.precision), precision_labels(),
-                            "NH-Net precision",
-                            "The network's arithmetic. auto (default): bfloat16 where the CPU "
-                            "has AVX512-BF16 and the model supports it, else float32. float32: "
-                            "the same normals on every machine. bfloat16: ~1.8x the network's "
-                            "speed on CPUs with AVX512-BF16 or AMX, slower on others; normals "
-                            "within ~0.01 degree. Used by the NH-Net method only."));
+      par.addParam(RichEnum("precision", precision_index(e.model.precision),
+                            nhplugin::precision_list(), "NH-Net precision",
+                            nhplugin::precision_help() + " Used by the NH-Net method only."));
       break;
     case FP_DENOISE:
       par.addParam(
@@ -358,10 +350,15 @@ void NhnetFilterPlugin::initParameterSet(QAction* action, MeshModel& m, RichPara
                                  " x the average point spacing."));
       par.addParam(RichEnum("normals", 0, labels(kGuides), "Normals",
                             "Which normals guide the update: the current vertex normals, or "
-                            "normals estimated first with MFPS and automatic scales (stored "
-                            "as the vertex normals)."));
+                            "normals estimated first with the default method (NH-Net when its "
+                            "model is installed, else MFPS) and automatic scales (stored as the "
+                            "vertex normals)."));
       par.addParam(RichInt("threads", d.run.threads, "Threads (0 = all cores)",
                            "Worker threads; 0 = all cores."));
+      par.addParam(RichEnum(
+          "precision", precision_index(e.model.precision), nhplugin::precision_list(),
+          "NH-Net precision",
+          nhplugin::precision_help() + " Used when the normals are estimated first by NH-Net."));
       break;
   }
 }
@@ -484,9 +481,7 @@ void NhnetFilterPlugin::estimate(MeshModel& mm, const RichParameterList& par,
   mm.updateDataMask(MeshModel::MM_VERTNORMAL);
 
   for (const std::string& w : res.warnings) Log(GLLogStream::WARNING, "NH-Net: " + w);
-  // The network's device and arithmetic, as nhnet-cli's summary names them.
-  const std::string ran =
-      res.device_used.empty() ? "" : " on " + res.device_used + " in " + res.precision_used;
+  const std::string ran = nhnet::network_phrase(res.device_used, res.precision_used);
   Log("NH-Net: normals of %d vertices (%lld failed), method %s%s, k %d, scales %s, noise ratio "
       "%.3g, %lld feature candidates; orientation %s from %s: %lld flipped, %lld undecided",
       int(v.ptr.size()), (long long)res.failed, nhnet::to_string(opt.method), ran.c_str(),
@@ -511,6 +506,7 @@ void NhnetFilterPlugin::denoise(MeshModel& mm, const RichParameterList& par, vcg
   nhnet::EstimateOptions eopt;
   eopt.method = nhnet::default_method();
   eopt.run.threads = opt.run.threads;
+  eopt.model.precision = precision_choice(par);
   nhnet::EstimateResult est;
   nhnet::DenoiseResult res;
   runPolled(cb, [&](const nhnet::ProgressCallback& progress) {
@@ -527,6 +523,9 @@ void NhnetFilterPlugin::denoise(MeshModel& mm, const RichParameterList& par, vcg
     res = nhnet::denoise_points(v.points, v.normals, opt);
   });
   for (const std::string& w : est.warnings) Log(GLLogStream::WARNING, "NH-Net: " + w);
+  if (guide == GuideNormals::Estimate)
+    Log("NH-Net: guiding normals by method %s%s (%lld failed)", nhnet::to_string(eopt.method),
+        nhnet::network_phrase(est.device_used, est.precision_used).c_str(), (long long)est.failed);
 
   for (size_t i = 0; i < v.ptr.size(); ++i) {
     const auto r = Eigen::Index(i);

@@ -328,6 +328,14 @@ sys.exit(0 if da < 0.7 * db else 1)' "$COMPARE" || fail "denoise did not move th
   log_has "5 iterations"
   log_has "normals input"
   [[ -s den2.ply ]] || fail "den2.ply not written"
+  # -PRECISION reaches the normals the denoiser estimates with nhnet: the summary names the
+  # arithmetic that ran, float32 and bfloat16 each (an ignored option fails on any CPU).
+  local p
+  for p in float32 bfloat16; do
+    cc -O sphere.xyz -NHNET_DENOISE -ITERATIONS 2 -NORMALS nhnet -PRECISION "$p" -SAVE_CLOUDS FILE den3.ply
+    expect_rc 0
+    log_has "method nhnet on cpu in $p,"
+  done
 }
 
 # `cmake --install` puts the plugin where the stock CloudCompare finds it: <prefix>/share/CCCorp/

@@ -144,6 +144,13 @@ TEST(NhNetModel, PrecisionErrorListsTheValidValues) {
   }
 }
 
+// How the CLI's summary and the plugins' logs name where the network ran: nothing without one.
+TEST(NhNetModel, NetworkPhraseNamesDeviceAndPrecisionOnlyWhenANetworkRan) {
+  EXPECT_EQ(network_phrase("cpu", "bfloat16"), " on cpu in bfloat16");
+  EXPECT_EQ(network_phrase("cuda", "float32"), " on cuda in float32");
+  EXPECT_EQ(network_phrase("", "float32"), "");
+}
+
 // The shipped model names the layers bfloat16 casts (bfloat16_modules): only the branches' first
 // two layers run in bfloat16, the matrices, the gathering MLP and the residual stay float32. On a
 // noisy sphere's descriptors its normals then stay within 0.05 degree of float32's on average

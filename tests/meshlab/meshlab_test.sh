@@ -62,14 +62,16 @@ estimate_mlx() {
   </filter>
 MLX
 }
-# denoise_mlx NORMALS  (0 = current vertex normals, 1 = estimate first)
+# denoise_mlx NORMALS [PRECISION [ITERATIONS]]  (normals 0 = current vertex normals, 1 = estimate
+# first; precision as estimate_mlx's)
 denoise_mlx() {
   cat <<MLX
   <filter name="Normal-guided denoise">
-   <Param type="RichInt" name="iterations" value="20"/>
+   <Param type="RichInt" name="iterations" value="${3:-20}"/>
    <Param type="RichFloat" name="radius" value="0"/>
    <Param type="RichEnum" name="normals" value="$1" enum_cardinality="2"/>
    <Param type="RichInt" name="threads" value="0"/>
+   <Param type="RichEnum" name="precision" value="${2:-0}" enum_cardinality="3"/>
   </filter>
 MLX
 }
@@ -300,6 +302,23 @@ if mls -i cube.ply -o cube_chain.ply -m vn sa -s chain.mlx; then
 else
   fail "estimate + denoise exited $?"; cat last.log
 fi
+
+# 5b. The denoiser's precision reaches its 'estimate first': the log names the method that
+# estimated the guiding normals and, for nhnet, the arithmetic that ran, float32 and bfloat16
+# each (so an ignored parameter fails on any CPU). With the default method mfps (no model
+# installed) there is no network, and the log must name mfps alone.
+method=$(case $default_index in 0) echo mfps ;; 1) echo pca ;; *) echo nhnet ;; esac)
+for idx in 1 2; do
+  name=$([[ $idx == 1 ]] && echo float32 || echo bfloat16)
+  phrase="guiding normals by method $method on cpu in $name ("
+  [[ $method == nhnet ]] || phrase="guiding normals by method $method ("
+  denoise_mlx 1 "$idx" 2 | script >denoise_prec.mlx
+  if mls -i cube.ply -o cube_prec.ply -m vn -s denoise_prec.mlx && grep -qF "$phrase" last.log; then
+    pass "denoise estimate first, precision $name: the log says '$phrase'"
+  else
+    fail "denoise estimate first, precision $name: no '$phrase' in the log"; cat last.log
+  fi
+done
 
 # 6. Errors: a clear message in the log, meshlabserver's exit for a failed script (255: it calls
 # exit(-1)), not a crash (134 abort, 139 segfault), and no output written.

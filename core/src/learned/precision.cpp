@@ -31,4 +31,8 @@ void check_precision(const std::string& precision, const std::string& what) {
   throw InvalidOptions(what + " must be " + list + ", got '" + precision + "'");
 }
 
+std::string network_phrase(const std::string& device, const std::string& precision) {
+  return device.empty() ? std::string() : " on " + device + " in " + precision;
+}
+
 }  // namespace nhnet

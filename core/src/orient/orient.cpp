@@ -371,10 +371,12 @@ class Prim {
     visited_[size_t(u)] = 1;
     // The neighbours' rows are scattered (the frontier wanders): fetch them all before the
     // first is needed, so their cache misses overlap.
+#if defined(__GNUC__) || defined(__clang__)
     for (int32_t v : graph_.adj[size_t(u)]) {
       __builtin_prefetch(guide_.row(v).data());
       __builtin_prefetch(pts_.row(v).data());
     }
+#endif
     for (int32_t v : graph_.adj[size_t(u)])
       if (!visited_[size_t(v)]) frontier_.offer(v, 1.0 - std::abs(consistency(u, v)), u);
     if ((++done_ & 4095) == 0 && options_.run.progress &&

@@ -33,12 +33,24 @@ enum class Refine {
 /// and the Python bindings (nhnet.PRECISIONS) check against.
 inline constexpr std::array<const char*, 3> kPrecisions = {"auto", "float32", "bfloat16"};
 
+/// What each of kPrecisions does, in one sentence a value: the help of every front end's
+/// precision setting (nhnet-cli --precision, the MeshLab parameter, the CloudCompare list).
+inline constexpr const char* kPrecisionHelp =
+    "auto: bfloat16 where the CPU has AVX512-BF16 and the model supports it, else float32; "
+    "float32: the same normals on every machine; bfloat16: ~1.8x the network's speed on CPUs "
+    "with AVX512-BF16 or AMX, slower on others, normals within ~0.01 degree";
+
 /// Whether `precision` is one of kPrecisions.
 bool valid_precision(const std::string& precision);
 
 /// Throws InvalidOptions "<what> must be auto, float32 or bfloat16, got '<precision>'" (the list
 /// from kPrecisions) unless valid_precision(precision); `what` names the setting to the user.
 void check_precision(const std::string& precision, const std::string& what);
+
+/// " on <device> in <precision>" (e.g. " on cpu in bfloat16") when a network ran (`device` not
+/// empty: EstimateResult::device_used), else "": how nhnet-cli's summary and the plugins' logs
+/// name where and in which arithmetic the network ran.
+std::string network_phrase(const std::string& device, const std::string& precision);
 
 /// Whether this CPU has AVX512-BF16, the dot products oneDNN's bfloat16 kernels run on (every
 /// CPU with AMX has them); elsewhere bfloat16 runs slower than float32.
