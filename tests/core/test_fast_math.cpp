@@ -97,6 +97,39 @@ TEST(FastTanh, AbsoluteErrorBelow1e14AndTheEdgesKept) {
   EXPECT_TRUE(out[3] == 0.0 && std::signbit(out[3]));
 }
 
+// softplus_batch against libm's log1p(exp(x)) over the learned fit's range of member scores
+// and far beyond; the edges as documented.
+TEST(FastSoftplus, RelativeErrorBelow1e11AndTheEdgesKept) {
+  std::vector<double> x;
+  for (double v = -60; v <= 60; v += 0.0041) x.push_back(v);
+  for (double v : {0.0, -0.0, 1e-300, -1e-12, 1e-6, 19.999, 20.0, 700.0, -700.0}) x.push_back(v);
+  std::vector<double> y(x.size());
+  nhnet::detail::softplus_batch(x.data(), y.data(), x.size());
+  double worst = 0;
+  for (size_t i = 0; i < x.size(); ++i) {
+    const double want = x[i] > 30 ? x[i] + std::exp(-x[i]) : std::log1p(std::exp(x[i]));
+    worst = std::max(worst, std::abs(y[i] - want) / want);
+  }
+  std::printf("  measured: largest relative |softplus_batch - libm| %.3g\n", worst);
+  EXPECT_LT(worst, 1e-11);
+  const double inf = std::numeric_limits<double>::infinity();
+  const double edge[3] = {inf, -inf, std::nan("")};
+  double out[3];
+  nhnet::detail::softplus_batch(edge, out, 3);
+  EXPECT_EQ(out[0], inf);
+  EXPECT_GE(out[1], 0.0);
+  EXPECT_LT(out[1], 1e-300);
+  EXPECT_TRUE(std::isnan(out[2]));
+  // log1p_unit on its own over [0, 1], against libm.
+  double worst_log = 0;
+  for (double t = 0; t <= 1.0; t += 1.0 / 4096)
+    if (t > 0)
+      worst_log = std::max(worst_log,
+                           std::abs(nhnet::detail::log1p_unit(t) - std::log1p(t)) / std::log1p(t));
+  EXPECT_LT(worst_log, 1e-11);
+  EXPECT_EQ(nhnet::detail::log1p_unit(0.0), 0.0);
+}
+
 TEST(PlaneKernels, EveryPathGivesThePerPointEigenBits) {
   // MFPS's objective took exp(-r^2 / s^2) of r = (q - c).dot(n) point by point (Vector3d); the
   // coordinate-array paths must give the same bits, so MFPS's planes and scores do not move.

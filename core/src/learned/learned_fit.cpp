@@ -8,6 +8,7 @@
 #include "nhnet/learned/learned_fit.hpp"
 
 #include "geometry/tangent_frame.hpp"
+#include "learned/dense_rows.hpp"
 #include "nhnet/errors.hpp"
 #include "util/parallel.hpp"
 #include "util/spatial_order.hpp"
@@ -36,18 +37,27 @@ constexpr int kM = kFitMembers, kH = kFitHidden, kF = kFitFeatures, kG = kFitGat
 /// kBlock x kM members instead of a small one per point.
 constexpr int kBlock = 128;
 
-template <int R, int C>
-using Fixed = Eigen::Matrix<float, R, C, Eigen::RowMajor>;
-using Hidden = Eigen::Matrix<float, 1, kH>;
+static_assert(kH == detail::kDenseWidth && kG == detail::kDenseWidth,
+              "the member network's layers are dense_rows layers of 16 outputs");
 
-/// The fitted layers as matrices (out x in, as torch stores them) and row vectors.
+/// Member features, one row of kF a member.
+using MemberFeatures = Eigen::Matrix<float, Eigen::Dynamic, kF, Eigen::RowMajor>;
+
+/// The fitted layers, each weight transposed to dense_rows' layout (in x out; torch stores out
+/// x in): columns [c0, c0 + in) of torch's `w` (out rows of `stride` floats).
+template <int In>
+std::array<float, In * kH> transposed(const float* w, int stride, int c0) {
+  std::array<float, In * kH> t{};
+  for (int o = 0; o < kH; ++o)
+    for (int k = 0; k < In; ++k) t[size_t(k * kH + o)] = w[o * stride + c0 + k];
+  return t;
+}
 struct Layers {
-  Eigen::Map<const Fixed<kH, kF>> w1{&kW1[0][0]};
-  Eigen::Map<const Fixed<kH, kH>> w2{&kW2[0][0]};
-  Eigen::Map<const Fixed<kH, 2 * kH>> w3{&kW3[0][0]};
-  Eigen::Map<const Fixed<kG, kH + 1>> g1{&kG1[0][0]};
-  Eigen::Map<const Hidden> b1{kB1.data()}, b2{kB2.data()}, b3{kB3.data()}, w4{kW4.data()};
-  Eigen::Map<const Eigen::Matrix<float, 1, kG>> gb1{kGB1.data()}, g2{kG2.data()};
+  std::array<float, kF* kH> w1 = transposed<kF>(&kW1[0][0], kF, 0);
+  std::array<float, kH* kH> w2 = transposed<kH>(&kW2[0][0], kH, 0);
+  std::array<float, kH* kH> w3_member = transposed<kH>(&kW3[0][0], 2 * kH, 0);
+  std::array<float, kH* kH> w3_pooled = transposed<kH>(&kW3[0][0], 2 * kH, kH);
+  std::array<float, (kH + 1)* kG> g1 = transposed<kH + 1>(&kG1[0][0], kH + 1, 0);
 };
 
 /// A point's members in its normal's frame: scaled tangent coordinates and heights (u, v, h)
@@ -61,7 +71,7 @@ struct Frame {
 /// from `row`); false when its members all sit on it (no radius). `noise`: log of the cloud's
 /// noise ratio.
 bool member_frame(const LearnedFitInput& in, Eigen::Index i, float noise, Frame& fr,
-                  Eigen::MatrixXf& features, Eigen::Index row) {
+                  MemberFeatures& features, Eigen::Index row) {
   const Points& pts = *in.points;
   const Eigen::Vector3d p = pts.row(i).transpose(), n = fr.n;
   std::array<Eigen::Index, kM> member;
@@ -96,32 +106,60 @@ bool member_frame(const LearnedFitInput& in, Eigen::Index i, float noise, Frame&
   return true;
 }
 
-float softplus(float x) { return x > 20 ? x : std::log1p(std::exp(x)); }
+/// One thread's buffers for member_weights (reused from block to block).
+struct MemberScratch {
+  std::vector<float> e1, e2, z;  // kBlock x kM rows of kH: the layers' outputs
+  std::vector<float> pooled;     // kBlock rows of kH: the members' max-pool
+  std::vector<float> gate_in;    // kBlock rows of kH + 1: the max-pool and the noise
+  std::vector<float> global, hidden;
+  std::vector<double> score;  // each member's score, then its weight (softplus)
+};
 
 /// The network on a block's member features (len x kM rows): each member's weight (`weights`,
-/// same rows) and each point's gate (`gates`, len).
-void member_weights(const Layers& l, const Eigen::MatrixXf& features, Eigen::Index len, float noise,
+/// same rows) and each point's gate (`gates`, len). Each layer through dense_rows.
+void member_weights(const Layers& l, const MemberFeatures& features, Eigen::Index len, float noise,
                     Eigen::VectorXf& weights, Eigen::VectorXf& gates) {
-  Eigen::MatrixXf e = features * l.w1.transpose();
-  e = (e.rowwise() + l.b1).cwiseMax(0.0f);
-  Eigen::MatrixXf e2 = e * l.w2.transpose();
-  e2 = (e2.rowwise() + l.b2).cwiseMax(0.0f);
-  Eigen::MatrixXf pooled(len, kH);
-  for (Eigen::Index r = 0; r < len; ++r)
-    pooled.row(r) = e2.middleRows(r * kM, kM).colwise().maxCoeff();
-  Eigen::MatrixXf global = pooled * l.w3.rightCols<kH>().transpose();
-  global.rowwise() += l.b3;
-  Eigen::MatrixXf z = e2 * l.w3.leftCols<kH>().transpose();
-  for (Eigen::Index r = 0; r < len; ++r) z.middleRows(r * kM, kM).rowwise() += global.row(r);
-  z = z.cwiseMax(0.0f);
-  weights = z.lazyProduct(l.w4.transpose());
-  for (Eigen::Index j = 0; j < weights.size(); ++j) weights[j] = softplus(weights[j] + kB4);
-  Eigen::MatrixXf gate_in(len, kH + 1);
-  gate_in << pooled, Eigen::VectorXf::Constant(len, noise);
-  Eigen::MatrixXf hidden = gate_in * l.g1.transpose();
-  hidden = (hidden.rowwise() + l.gb1).cwiseMax(0.0f);
-  gates = hidden.lazyProduct(l.g2.transpose());
-  for (Eigen::Index r = 0; r < len; ++r) gates[r] = 1 / (1 + std::exp(-(gates[r] + kGB2)));
+  thread_local MemberScratch m;
+  const size_t rows = size_t(len) * kM, n = size_t(len);
+  m.e1.resize(rows * kH);
+  m.e2.resize(rows * kH);
+  m.z.resize(rows * kH);
+  m.pooled.resize(n * kH);
+  m.gate_in.resize(n * (kH + 1));
+  m.global.resize(n * kH);
+  m.hidden.resize(n * kG);
+  detail::dense_rows(features.data(), rows, kF, l.w1.data(), kB1.data(), rows, true, m.e1.data());
+  detail::dense_rows(m.e1.data(), rows, kH, l.w2.data(), kB2.data(), rows, true, m.e2.data());
+  for (size_t r = 0; r < n; ++r) {  // max over each point's members; the gate's input
+    float* p = &m.pooled[r * kH];
+    std::copy_n(&m.e2[r * kM * kH], kH, p);
+    for (size_t j = 1; j < size_t(kM); ++j)
+      for (int c = 0; c < kH; ++c) p[c] = std::max(p[c], m.e2[(r * kM + j) * kH + size_t(c)]);
+    std::copy_n(p, kH, &m.gate_in[r * (kH + 1)]);
+    m.gate_in[r * (kH + 1) + kH] = noise;
+  }
+  detail::dense_rows(m.pooled.data(), n, kH, l.w3_pooled.data(), kB3.data(), n, false,
+                     m.global.data());
+  // Each member with its point's pooled term as the bias.
+  detail::dense_rows(m.e2.data(), rows, kH, l.w3_member.data(), m.global.data(), kM, true,
+                     m.z.data());
+  m.score.resize(rows);
+  for (size_t j = 0; j < rows; ++j) {
+    float wsum = 0;
+    for (int c = 0; c < kH; ++c) wsum += m.z[j * kH + size_t(c)] * kW4[size_t(c)];
+    m.score[j] = double(wsum + kB4);
+  }
+  detail::softplus_batch(m.score.data(), m.score.data(), rows);
+  weights.resize(Eigen::Index(rows));
+  for (size_t j = 0; j < rows; ++j) weights[Eigen::Index(j)] = float(m.score[j]);
+  detail::dense_rows(m.gate_in.data(), n, kH + 1, l.g1.data(), kGB1.data(), n, true,
+                     m.hidden.data());
+  gates.resize(len);
+  for (size_t r = 0; r < n; ++r) {
+    float g = 0;
+    for (int c = 0; c < kG; ++c) g += m.hidden[r * kG + size_t(c)] * kG2[size_t(c)];
+    gates[Eigen::Index(r)] = 1 / (1 + std::exp(-(g + kGB2)));
+  }
 }
 
 /// The weighted jet's normal in frame fr (fr.n - c1 a - c2 b), or NaN when the system is singular.
@@ -147,7 +185,7 @@ void fit_block(const LearnedFitInput& in, const Layers& l, const int64_t* rows, 
                float noise, Normals& out) {
   std::vector<Frame> frames(static_cast<size_t>(len));
   std::vector<uint8_t> ok(size_t(len), 0);
-  Eigen::MatrixXf features = Eigen::MatrixXf::Zero(len * kM, kF);
+  MemberFeatures features = MemberFeatures::Zero(len * kM, kF);
   for (Eigen::Index r = 0; r < len; ++r) {
     Frame& fr = frames[size_t(r)];
     fr.n = in.normals->row(rows[r]).transpose();
