@@ -53,7 +53,7 @@ TEST(DenseRows, ReferenceRowIsTheAffineMapThenRelu) {
   const float in[2] = {2.f, -1.f};
   std::vector<float> w(2 * kDenseWidth, 0.f), bias(kDenseWidth, 0.f);
   for (int c = 0; c < kDenseWidth; ++c) {
-    w[size_t(c)] = float(c);        // k = 0
+    w[size_t(c)] = float(c);         // k = 0
     w[size_t(kDenseWidth + c)] = 1;  // k = 1
     bias[size_t(c)] = -3;
   }
@@ -68,8 +68,8 @@ TEST(DenseRows, ReferenceRowIsTheAffineMapThenRelu) {
   std::vector<float> four(4 * 2, 0.f);
   four[0] = nan_in[0];
   dense_rows(four.data(), 4, 2, w.data(), bias.data(), 4, true, lanes.data());
-  EXPECT_TRUE(std::isnan(lanes[1]));  // NaN kept by relu, in the lanes path too
-  EXPECT_EQ(lanes[kDenseWidth], 0.f);   // row 1: all zero input, bias -3 -> 0
+  EXPECT_TRUE(std::isnan(lanes[1]));   // NaN kept by relu, in the lanes path too
+  EXPECT_EQ(lanes[kDenseWidth], 0.f);  // row 1: all zero input, bias -3 -> 0
 }
 
 }  // namespace

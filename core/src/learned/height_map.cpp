@@ -38,6 +38,28 @@ struct Contributions {
   std::vector<double> weight;  // exp(-dist2 / 2)
   size_t count = 0;            // pairs in use
 
+  /// The pair (neighbour at u, w, height z; cell rr, cc) when within the ball (branch-free:
+  /// written always, kept by advancing the count).
+  void add_pair(double u, double w, double z, double z2, int rr, int cc, int m, double ball2) {
+    const double e2 = (u - rr) * (u - rr) + (w - cc) * (w - cc) + z2;
+    cell[count] = rr * m + cc;
+    dist2[count] = e2;
+    height[count] = z;
+    count += size_t(!(e2 > ball2));
+  }
+  /// The pairs of a neighbour whose cells span at most 2 x 2 (a ball below one cell): rows
+  /// r0..r1 and columns c0..c1 as the general loop, without its loop control.
+  void add_block2(double u, double w, double z, double z2, int r0, int r1, int c0, int c1, int m,
+                  double ball2) {
+    if (r1 < r0 || c1 < c0) return;
+    add_pair(u, w, z, z2, r0, c0, m, ball2);
+    if (c1 > c0) add_pair(u, w, z, z2, r0, c1, m, ball2);
+    if (r1 > r0) {
+      add_pair(u, w, z, z2, r1, c0, m, ball2);
+      if (c1 > c0) add_pair(u, w, z, z2, r1, c1, m, ball2);
+    }
+  }
+
   /// Every (neighbour, cell) pair within the ball, in neighbour order then row-major cell
   /// order, for the map of frame (x, y, nf) with cells of size 1 / inv_h on an m x m grid; then
   /// all their Gaussian weights in one vectorised exponential (util/fast_math.hpp: four lanes
@@ -65,15 +87,12 @@ struct Contributions {
       const int r1 = std::min(m - 1, floor_int(u + ball));
       const int c0 = std::max(0, ceil_int(w - ball));
       const int c1 = std::min(m - 1, floor_int(w + ball));
+      if (span <= 2) {
+        add_block2(u, w, z, z2, r0, r1, c0, c1, m, ball2);
+        continue;
+      }
       for (int rr = r0; rr <= r1; ++rr)
-        for (int cc = c0; cc <= c1; ++cc) {
-          const double e2 = (u - rr) * (u - rr) + (w - cc) * (w - cc) + z2;
-          if (e2 > ball2) continue;
-          cell[count] = rr * m + cc;
-          dist2[count] = e2;
-          height[count] = z;
-          ++count;
-        }
+        for (int cc = c0; cc <= c1; ++cc) add_pair(u, w, z, z2, rr, cc, m, ball2);
     }
     for (size_t e = 0; e < count; ++e) weight[e] = dist2[e] * -0.5;
     detail::exp_nonpositive_batch(weight.data(), weight.data(), count);
