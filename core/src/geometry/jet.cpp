@@ -34,10 +34,13 @@ Eigen::Vector3d jet_row(const Points& points, const int32_t* idx, int k, const E
   }
   const double s = std::sqrt(s2 / k);
   if (!(s > 0)) return nan;
+  // The scale folded into the axes: (q / s) . a as q . (a / s), three products a point fewer
+  // than scaling q (and no divisions).
+  const Eigen::Vector3d as = a / s, bs = b / s, ns = n / s;
   detail::JetSystem sys;
   for (int j = 0; j < k; ++j) {
-    const Eigen::Vector3d q = offsets[size_t(j)] / s;
-    sys.add(q.dot(a), q.dot(b), q.dot(n));
+    const Eigen::Vector3d& q = offsets[size_t(j)];
+    sys.add(q.dot(as), q.dot(bs), q.dot(ns));
   }
   const Eigen::LDLT<Eigen::Matrix<double, 6, 6>> ldlt(sys.ata());
   // A pivot far below the largest: the neighbours do not span a quadric (collinear, too few).
