@@ -29,14 +29,33 @@ inline int ceil_int(double x) {
   return t + int(x > double(t));
 }
 
+/// A point's neighbours relative to it, as three coordinate arrays (per thread, reused).
+struct Offsets {
+  std::vector<double> x, y, z;
+
+  void resize(size_t n) {
+    x.resize(n);
+    y.resize(n);
+    z.resize(n);
+  }
+  /// (v . a) * s of every offset v into out, each dot in the order of Eigen's Vector3d dot,
+  /// ((x a0 + y a1) + z a2), so the values are those of v.dot(a) * s bit for bit; on columns,
+  /// so that the loop vectorises.
+  void project(const Eigen::Vector3d& a, double s, double* out) const {
+    const double a0 = a[0], a1 = a[1], a2 = a[2];
+    for (size_t j = 0; j < x.size(); ++j) out[j] = ((x[j] * a0 + y[j] * a1) + z[j] * a2) * s;
+  }
+};
+
 /// The ball-cell pairs of one height map before their weights (per thread, reused: sized once
 /// for the largest neighbourhood, so no allocation per point).
 struct Contributions {
-  std::vector<int> cell;       // row-major cell index
-  std::vector<double> dist2;   // squared distance to the cell centre, in cells
-  std::vector<double> height;  // the neighbour's height, in cells
-  std::vector<double> weight;  // exp(-dist2 / 2)
-  size_t count = 0;            // pairs in use
+  std::vector<int> cell;           // row-major cell index
+  std::vector<double> dist2;       // squared distance to the cell centre, in cells
+  std::vector<double> height;      // the neighbour's height, in cells
+  std::vector<double> weight;      // exp(-dist2 / 2)
+  size_t count = 0;                // pairs in use
+  std::vector<double> hz, hu, hw;  // per neighbour: height and map coordinates, in cells
 
   /// The pair (neighbour at u, w, height z; cell rr, cc) when within the ball (branch-free:
   /// written always, kept by advancing the count).
@@ -64,11 +83,10 @@ struct Contributions {
   /// order, for the map of frame (x, y, nf) with cells of size 1 / inv_h on an m x m grid; then
   /// all their Gaussian weights in one vectorised exponential (util/fast_math.hpp: four lanes
   /// with AVX2, same bits without; Eigen's two-lane exp was a quarter of the maps' time).
-  void collect(const std::vector<Eigen::Vector3d>& d, const Eigen::Vector3d& nf,
-               const Eigen::Vector3d& x, const Eigen::Vector3d& y, double inv_h, int m,
-               double ball) {
+  void collect(const Offsets& d, const Eigen::Vector3d& nf, const Eigen::Vector3d& x,
+               const Eigen::Vector3d& y, double inv_h, int m, double ball) {
     const int span = std::min(m, int(2 * ball) + 1);  // cells a ball reaches along one axis
-    const size_t most = d.size() * size_t(span * span);
+    const size_t n = d.x.size(), most = n * size_t(span * span);
     if (cell.size() < most) {
       cell.resize(most);
       dist2.resize(most);
@@ -78,11 +96,18 @@ struct Contributions {
     count = 0;
     const int half = m / 2;
     const double ball2 = ball * ball;
-    for (const Eigen::Vector3d& v : d) {
-      const double z = v.dot(nf) * inv_h;  // height in cells
+    // Heights and map coordinates, in cells, of all neighbours at once (vectorised).
+    hz.resize(n);
+    hu.resize(n);
+    hw.resize(n);
+    d.project(nf, inv_h, hz.data());
+    d.project(x, inv_h, hu.data());
+    d.project(y, inv_h, hw.data());
+    for (size_t j = 0; j < n; ++j) {
+      const double z = hz[j];
       const double z2 = z * z;
       if (z2 > ball2) continue;
-      const double u = v.dot(x) * inv_h + half, w = v.dot(y) * inv_h + half;
+      const double u = hu[j] + half, w = hw[j] + half;
       const int r0 = std::max(0, ceil_int(u - ball));
       const int r1 = std::min(m - 1, floor_int(u + ball));
       const int c0 = std::max(0, ceil_int(w - ball));
@@ -101,7 +126,7 @@ struct Contributions {
 
 thread_local Contributions contributions;
 thread_local std::vector<double> cell_sums;  // per thread: 2 m^2 sums (weights, heights)
-thread_local std::vector<Eigen::Vector3d> offsets;
+thread_local Offsets offsets;
 
 }  // namespace
 
@@ -131,12 +156,15 @@ HeightMaps height_maps(const Points& points, const IndexMatrix& knn, int k,
     for (int c = 0; c < 9; ++c) r(c / 3, c % 3) = frames.rotations(i, c);
     const Eigen::Vector3d pi = points.row(first + i).transpose();
     const Eigen::Vector3d e1 = r.row(0).transpose(), e2 = r.row(1).transpose();
-    std::vector<Eigen::Vector3d>& d = offsets;
+    Offsets& d = offsets;
     d.resize(static_cast<size_t>(k));
     double rad2 = 0;
     for (int c = 0; c < k; ++c) {
-      d[size_t(c)] = points.row(knn(i, c)).transpose() - pi;
-      rad2 = std::max(rad2, d[size_t(c)].squaredNorm());
+      const Eigen::Vector3d v = points.row(knn(i, c)).transpose() - pi;
+      d.x[size_t(c)] = v[0];
+      d.y[size_t(c)] = v[1];
+      d.z[size_t(c)] = v[2];
+      rad2 = std::max(rad2, v.squaredNorm());
     }
     const double h = std::sqrt(rad2) / (half + options.ball);
     if (!(h > 0)) {
