@@ -56,6 +56,7 @@ struct Contributions {
   std::vector<double> weight;      // exp(-dist2 / 2)
   size_t count = 0;                // pairs in use
   std::vector<double> hz, hu, hw;  // per neighbour: height and map coordinates, in cells
+  std::vector<uint32_t> near;      // the neighbours within the ball's height
 
   /// The pair (neighbour at u, w, height z; cell rr, cc) when within the ball (branch-free:
   /// written always, kept by advancing the count).
@@ -103,10 +104,18 @@ struct Contributions {
     d.project(nf, inv_h, hz.data());
     d.project(x, inv_h, hu.data());
     d.project(y, inv_h, hw.data());
+    // Those within the ball's reach of the tangent plane, listed without a branch (a third of
+    // them are out: the branch mispredicted).
+    near.resize(n);
+    size_t nn = 0;
     for (size_t j = 0; j < n; ++j) {
+      near[nn] = uint32_t(j);
+      nn += size_t(!(hz[j] * hz[j] > ball2));
+    }
+    for (size_t t = 0; t < nn; ++t) {
+      const size_t j = near[t];
       const double z = hz[j];
       const double z2 = z * z;
-      if (z2 > ball2) continue;
       const double u = hu[j] + half, w = hw[j] + half;
       const int r0 = std::max(0, ceil_int(u - ball));
       const int r1 = std::min(m - 1, floor_int(u + ball));
