@@ -30,7 +30,8 @@ struct TreeShape {
     int32_t child1 = -1, child2 = -1;  // -1: a leaf
     int32_t divfeat = 0;               // split axis
     float divlow = 0, divhigh = 0;     // the split values nanoflann compares the query with
-    uint32_t boundary = 0;             // first position of child2's subtree
+    uint32_t boundary = 0;             // first position of child2's subtree; a leaf's first
+    uint32_t end = 0;                  // a leaf: one past its last position
   };
   std::vector<Node> nodes;           // nodes[0]: the root
   std::vector<uint32_t> leaf_start;  // leaf l holds positions [leaf_start[l], leaf_start[l + 1])

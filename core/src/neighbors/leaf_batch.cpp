@@ -15,6 +15,8 @@ int32_t add_node(const Tree::Node* node, TreeShape& shape, uint32_t& first) {
   if (node->child1 == nullptr && node->child2 == nullptr) {
     first = uint32_t(node->node_type.lr.left);
     shape.leaf_start.push_back(first);
+    shape.nodes[size_t(id)].boundary = first;
+    shape.nodes[size_t(id)].end = uint32_t(node->node_type.lr.right);
     return id;
   }
   uint32_t first2 = 0;
@@ -92,8 +94,8 @@ float next_bound(const float* q, const float* qp, float far2, float r2) {
 
 }  // namespace
 
-bool LeafBatch::run(const Tree& tree, const FloatCloud& cloud, const TreeShape& shape, uint32_t a,
-                    uint32_t b, int kk, float& radius) {
+bool LeafBatch::run(const FloatCloud& cloud, const TreeShape& shape, uint32_t a, uint32_t b, int kk,
+                    float& radius) {
   kk_ = kk;
   idx_.resize(size_t(b - a) * size_t(kk));
   d2_.resize(idx_.size());
@@ -101,7 +103,7 @@ bool LeafBatch::run(const Tree& tree, const FloatCloud& cloud, const TreeShape& 
   const double rho = leaf_ball(cloud, a, b, centre);
   for (int attempt = 0; attempt < kWidenings; ++attempt, radius *= kWiden) {
     const double reach = (double(radius) + rho) * (1 + kMargin);
-    gather(tree, cloud, centre, float(reach * reach));
+    gather(shape, cloud, centre, float(reach * reach));
     const float r2 = radius * radius;
     bool all = true;
     for (uint32_t p = a; p < b && all; ++p) {
@@ -118,12 +120,15 @@ bool LeafBatch::run(const Tree& tree, const FloatCloud& cloud, const TreeShape& 
   return false;
 }
 
-/// Every point within sqrt(r2) of centre, as candidates in columns (x_, y_, z_) for select().
-void LeafBatch::gather(const Tree& tree, const FloatCloud& cloud, const float* centre, float r2) {
-  around_.clear();
-  nanoflann::RadiusResultSet<float, uint32_t> set(r2, around_);
-  tree.findNeighbors(set, centre, nanoflann::SearchParams(32, 0.f, false));
-  const size_t n = around_.size();
+/// Every point within sqrt(r2) of centre, as candidates in columns (x_, y_, z_) for select():
+/// nanoflann's radius search (the same descent, pruning and float distances, hence the same
+/// points), walked over the flat TreeShape and writing the columns directly.
+void LeafBatch::gather(const TreeShape& shape, const FloatCloud& cloud, const float* centre,
+                       float r2) {
+  count_ = 0;
+  float dists[3] = {0.f, 0.f, 0.f};
+  descend(shape, cloud, 0, 0.f, dists, centre, r2);
+  const size_t n = count_;
   pos_.resize(n);
   x_.resize(n);
   y_.resize(n);
@@ -131,12 +136,54 @@ void LeafBatch::gather(const Tree& tree, const FloatCloud& cloud, const float* c
   dist_.resize(n);
   near_.resize(n);
   near_d_.resize(n);
-  for (size_t j = 0; j < n; ++j) {
-    const uint32_t p = around_[j].first;
-    pos_[j] = p;
-    x_[j] = cloud.xyz[3 * size_t(p)];
-    y_[j] = cloud.xyz[3 * size_t(p) + 1];
-    z_[j] = cloud.xyz[3 * size_t(p) + 2];
+}
+
+/// gather's descent from node `id`, `mindist` the squared distance from the centre to the
+/// node's cell as nanoflann bounds it (per axis in `dists`): the nearer child first, the other
+/// when its cell may reach within sqrt(r2).
+void LeafBatch::descend(const TreeShape& shape, const FloatCloud& cloud, int32_t id, float mindist,
+                        float* dists, const float* centre, float r2) {
+  const TreeShape::Node& node = shape.nodes[size_t(id)];
+  if (node.child1 < 0) {
+    add_leaf(cloud, node.boundary, node.end, centre, r2);
+    return;
+  }
+  const int f = node.divfeat;
+  const float diff1 = centre[f] - node.divlow, diff2 = centre[f] - node.divhigh;
+  const bool low = (diff1 + diff2) < 0;
+  const float cut = low ? diff2 * diff2 : diff1 * diff1;
+  descend(shape, cloud, low ? node.child1 : node.child2, mindist, dists, centre, r2);
+  const float saved = dists[f];
+  mindist = mindist + cut - saved;
+  dists[f] = cut;
+  if (mindist <= r2)
+    descend(shape, cloud, low ? node.child2 : node.child1, mindist, dists, centre, r2);
+  dists[f] = saved;
+}
+
+/// The points of positions [a, b) within sqrt(r2) of centre appended to the candidates
+/// (distances as L2_Simple_Adaptor: float, centre minus point, x + y + z; branch-free).
+void LeafBatch::add_leaf(const FloatCloud& cloud, uint32_t a, uint32_t b, const float* centre,
+                         float r2) {
+  if (count_ + (b - a) > pos_.size()) {
+    const size_t grown = std::max(2 * pos_.size(), count_ + (b - a) + 256);
+    pos_.resize(grown);
+    x_.resize(grown);
+    y_.resize(grown);
+    z_.resize(grown);
+  }
+  for (uint32_t p = a; p < b; ++p) {
+    const float* v = &cloud.xyz[3 * size_t(p)];
+    const float dx = centre[0] - v[0], dy = centre[1] - v[1], dz = centre[2] - v[2];
+    float d = 0.f;
+    d += dx * dx;
+    d += dy * dy;
+    d += dz * dz;
+    pos_[count_] = p;
+    x_[count_] = v[0];
+    y_[count_] = v[1];
+    z_[count_] = v[2];
+    count_ += size_t(d < r2);
   }
 }
 

@@ -23,23 +23,26 @@ class LeafBatch {
   /// guess of the k-th distance (> 0), widened while some query has fewer than kk points
   /// within it, and on success set to the guess for the next leaf. False when a few widenings
   /// did not reach kk points for every query (the caller then searches point by point).
-  bool run(const Tree& tree, const FloatCloud& cloud, const TreeShape& shape, uint32_t a,
-           uint32_t b, int kk, float& radius);
+  bool run(const FloatCloud& cloud, const TreeShape& shape, uint32_t a, uint32_t b, int kk,
+           float& radius);
   /// Query t's (t-th point of the leaf) neighbours' positions and squared distances, kk each.
   const uint32_t* indices(size_t t) const { return idx_.data() + t * size_t(kk_); }
   const float* distances(size_t t) const { return d2_.data() + t * size_t(kk_); }
 
  private:
-  void gather(const Tree& tree, const FloatCloud& cloud, const float* centre, float r2);
+  void gather(const TreeShape& shape, const FloatCloud& cloud, const float* centre, float r2);
+  void descend(const TreeShape& shape, const FloatCloud& cloud, int32_t id, float mindist,
+               float* dists, const float* centre, float r2);
+  void add_leaf(const FloatCloud& cloud, uint32_t a, uint32_t b, const float* centre, float r2);
   bool select(const TreeShape& shape, const float* q, float r2, float bound2, size_t t);
   size_t keep_below(float lim);
 
   int kk_ = 0;
-  std::vector<std::pair<uint32_t, float>> around_;  // the radius search's hits around the centre
-  std::vector<uint32_t> pos_;                       // candidates: positions and coordinates
-  std::vector<float> x_, y_, z_, dist_;             // and each candidate's distance to the query
-  std::vector<uint32_t> near_;                      // the candidates below a bound (keep_below)
-  std::vector<float> near_d_;                       // and their distances
+  size_t count_ = 0;                     // candidates gathered so far
+  std::vector<uint32_t> pos_;            // candidates: positions and coordinates
+  std::vector<float> x_, y_, z_, dist_;  // and each candidate's distance to the query
+  std::vector<uint32_t> near_;           // the candidates below a bound (keep_below)
+  std::vector<float> near_d_;            // and their distances
   FirstK order_;
   std::vector<uint32_t> idx_;
   std::vector<float> d2_;

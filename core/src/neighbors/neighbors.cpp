@@ -263,7 +263,7 @@ void leaf_rows(const TreeView& impl, size_t leaf, int kk, float& radius, IndexMa
     knn_search(impl.tree, &impl.cloud.xyz[3 * size_t(a)], kk, idx.data(), d2.data());
     radius = std::sqrt(d2[size_t(kk) - 1]) * detail::LeafBatch::kNextGuess;
   }
-  if (radius > 0 && batch.run(impl.tree, impl.cloud, impl.shape, a, b, kk, radius)) {
+  if (radius > 0 && batch.run(impl.cloud, impl.shape, a, b, kk, radius)) {
     for (uint32_t p = a; p < b; ++p)
       write_row(impl.original, p, kk, batch.indices(p - a), batch.distances(p - a),
                 Eigen::Index(impl.original[p]), indices, sq_distances);
