@@ -97,6 +97,12 @@ int precision_index(const std::string& precision) {
   return 0;
 }
 
+// The "precision" parameter of both filters; `use` ends its help with when the network runs.
+RichEnum precision_param(const std::string& value, const QString& use) {
+  return RichEnum("precision", precision_index(value), nhplugin::precision_list(),
+                  "NH-Net precision", nhplugin::precision_help() + " " + use);
+}
+
 std::string precision_choice(const RichParameterList& par) {
   return nhnet::kPrecisions[enum_index(par, "precision", nhnet::kPrecisions.size())];
 }
@@ -337,9 +343,7 @@ void NhnetFilterPlugin::initParameterSet(QAction* action, MeshModel& m, RichPara
       par.addParam(RichString("model", QString::fromStdString(e.model.path), "NH-Net model file",
                               "TorchScript model written by nhnet-export; empty = the shipped "
                               "model installed with nhnet. Used by the NH-Net method only."));
-      par.addParam(RichEnum("precision", precision_index(e.model.precision),
-                            nhplugin::precision_list(), "NH-Net precision",
-                            nhplugin::precision_help() + " Used by the NH-Net method only."));
+      par.addParam(precision_param(e.model.precision, "Used by the NH-Net method only."));
       break;
     case FP_DENOISE:
       par.addParam(
@@ -355,10 +359,8 @@ void NhnetFilterPlugin::initParameterSet(QAction* action, MeshModel& m, RichPara
                             "vertex normals)."));
       par.addParam(RichInt("threads", d.run.threads, "Threads (0 = all cores)",
                            "Worker threads; 0 = all cores."));
-      par.addParam(RichEnum(
-          "precision", precision_index(e.model.precision), nhplugin::precision_list(),
-          "NH-Net precision",
-          nhplugin::precision_help() + " Used when the normals are estimated first by NH-Net."));
+      par.addParam(precision_param(e.model.precision,
+                                   "Used when the normals are estimated first by NH-Net."));
       break;
   }
 }

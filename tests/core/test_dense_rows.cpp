@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -25,24 +26,32 @@ std::vector<float> random_floats(size_t n, std::mt19937& rng) {
 }
 
 // Every width the learned fit uses (7 features, 16 hidden, 17 with the noise), row counts that
-// leave a remainder after the fours, and per-group biases (64 rows a group, as the members).
+// leave a remainder after the fours, per-group biases (64 rows a group, as the members, and 6,
+// whose groups change inside a block of four), and input rows longer than the width (the pooled
+// layer reads 16 of the gate input's 17).
 TEST(DenseRows, SameBitsAsTheRowByRowReference) {
   std::mt19937 rng(5);
   for (int width : {7, 16, 17}) {
     for (size_t rows : {size_t(1), size_t(6), size_t(130), size_t(256)}) {
-      for (bool relu : {false, true}) {
-        const size_t group = rows >= 64 ? 64 : rows;
-        const size_t groups = (rows + group - 1) / group;
-        const std::vector<float> in = random_floats(rows * size_t(width), rng);
-        const std::vector<float> w = random_floats(size_t(width) * kDenseWidth, rng);
-        const std::vector<float> bias = random_floats(groups * kDenseWidth, rng);
-        std::vector<float> out(rows * kDenseWidth), want(rows * kDenseWidth);
-        dense_rows(in.data(), rows, width, w.data(), bias.data(), group, relu, out.data());
-        for (size_t r = 0; r < rows; ++r)
-          dense_row(in.data() + r * size_t(width), width, w.data(),
-                    bias.data() + (r / group) * kDenseWidth, relu, want.data() + r * kDenseWidth);
-        EXPECT_EQ(std::memcmp(out.data(), want.data(), out.size() * sizeof(float)), 0)
-            << "width " << width << ", " << rows << " rows, relu " << relu;
+      for (size_t group : {std::min(rows, size_t(64)), std::min(rows, size_t(6))}) {
+        for (size_t stride : {size_t(width), size_t(width) + 1}) {
+          for (bool relu : {false, true}) {
+            const size_t groups = (rows + group - 1) / group;
+            const std::vector<float> in = random_floats(rows * stride, rng);
+            const std::vector<float> w = random_floats(size_t(width) * kDenseWidth, rng);
+            const std::vector<float> bias = random_floats(groups * kDenseWidth, rng);
+            std::vector<float> out(rows * kDenseWidth), want(rows * kDenseWidth);
+            dense_rows(in.data(), stride, rows, width, w.data(), bias.data(), group, relu,
+                       out.data());
+            for (size_t r = 0; r < rows; ++r)
+              dense_row(in.data() + r * stride, width, w.data(),
+                        bias.data() + (r / group) * kDenseWidth, relu,
+                        want.data() + r * kDenseWidth);
+            EXPECT_EQ(std::memcmp(out.data(), want.data(), out.size() * sizeof(float)), 0)
+                << "width " << width << ", stride " << stride << ", " << rows << " rows, groups of "
+                << group << ", relu " << relu;
+          }
+        }
       }
     }
   }
@@ -67,7 +76,7 @@ TEST(DenseRows, ReferenceRowIsTheAffineMapThenRelu) {
   std::vector<float> lanes(4 * kDenseWidth);
   std::vector<float> four(4 * 2, 0.f);
   four[0] = nan_in[0];
-  dense_rows(four.data(), 4, 2, w.data(), bias.data(), 4, true, lanes.data());
+  dense_rows(four.data(), 2, 4, 2, w.data(), bias.data(), 4, true, lanes.data());
   EXPECT_TRUE(std::isnan(lanes[1]));   // NaN kept by relu, in the lanes path too
   EXPECT_EQ(lanes[kDenseWidth], 0.f);  // row 1: all zero input, bias -3 -> 0
 }

@@ -32,17 +32,19 @@ inline void dense_row(const float* in, int width, const float* w, const float* b
 }
 
 #if defined(NHNET_HAVE_AVX2_LANES)
-/// Rows [r, r + 4) of dense_rows with AVX2: the same operations per output as dense_row.
-__attribute__((target("avx2"))) inline void dense_rows4_avx2(const float* in, int width,
-                                                             const float* w, const float* bias,
-                                                             bool relu, float* out) {
+/// Rows [r, r + 4) of dense_rows with AVX2 (`stride` floats from one input row to the next):
+/// the same operations per output as dense_row.
+__attribute__((target("avx2"))) inline void dense_rows4_avx2(const float* in, size_t stride,
+                                                             int width, const float* w,
+                                                             const float* bias, bool relu,
+                                                             float* out) {
   __m256 acc[4][2];
   for (auto& row : acc) row[0] = row[1] = _mm256_setzero_ps();
   for (int k = 0; k < width; ++k) {
     const __m256 w0 = _mm256_loadu_ps(w + k * kDenseWidth);
     const __m256 w1 = _mm256_loadu_ps(w + k * kDenseWidth + 8);
     for (int i = 0; i < 4; ++i) {
-      const __m256 a = _mm256_set1_ps(in[i * width + k]);
+      const __m256 a = _mm256_set1_ps(in[size_t(i) * stride + size_t(k)]);
       acc[i][0] = _mm256_add_ps(acc[i][0], _mm256_mul_ps(a, w0));
       acc[i][1] = _mm256_add_ps(acc[i][1], _mm256_mul_ps(a, w1));
     }
@@ -61,24 +63,29 @@ __attribute__((target("avx2"))) inline void dense_rows4_avx2(const float* in, in
 }
 #endif
 
-/// The layer over `rows` rows of `in` (row-major, `width` floats a row) into `out` (row-major,
-/// kDenseWidth a row); w is width x kDenseWidth (k-major: the transpose of torch's weight),
-/// `bias` one row of kDenseWidth per `group` rows (group = rows: one bias for all); relu or
-/// none.
-inline void dense_rows(const float* in, size_t rows, int width, const float* w, const float* bias,
-                       size_t group, bool relu, float* out) {
+/// The layer over `rows` rows of `in` (row-major, `width` floats used of `stride` a row) into
+/// `out` (row-major, kDenseWidth a row); w is width x kDenseWidth (k-major: the transpose of
+/// torch's weight), `bias` one row of kDenseWidth per `group` rows (group = rows: one bias for
+/// all); relu or none.
+inline void dense_rows(const float* in, size_t stride, size_t rows, int width, const float* w,
+                       const float* bias, size_t group, bool relu, float* out) {
+  const auto row = [&](size_t r) {
+    dense_row(in + r * stride, width, w, bias + (r / group) * kDenseWidth, relu,
+              out + r * kDenseWidth);
+  };
   size_t r = 0;
 #if defined(NHNET_HAVE_AVX2_LANES)
   if (has_avx2())
     for (; r + 4 <= rows; r += 4) {
-      if (r / group != (r + 3) / group) break;  // a bias change inside the four: row by row
-      dense_rows4_avx2(in + r * size_t(width), width, w, bias + (r / group) * kDenseWidth, relu,
+      if (r / group != (r + 3) / group) {  // a bias change inside the four: row by row
+        for (size_t i = r; i < r + 4; ++i) row(i);
+        continue;
+      }
+      dense_rows4_avx2(in + r * stride, stride, width, w, bias + (r / group) * kDenseWidth, relu,
                        out + r * kDenseWidth);
     }
 #endif
-  for (; r < rows; ++r)
-    dense_row(in + r * size_t(width), width, w, bias + (r / group) * kDenseWidth, relu,
-              out + r * kDenseWidth);
+  for (; r < rows; ++r) row(r);
 }
 
 }  // namespace nhnet::detail

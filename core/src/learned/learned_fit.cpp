@@ -109,8 +109,7 @@ bool member_frame(const LearnedFitInput& in, Eigen::Index i, float noise, Frame&
 /// One thread's buffers for member_weights (reused from block to block).
 struct MemberScratch {
   std::vector<float> e1, e2, z;  // kBlock x kM rows of kH: the layers' outputs
-  std::vector<float> pooled;     // kBlock rows of kH: the members' max-pool
-  std::vector<float> gate_in;    // kBlock rows of kH + 1: the max-pool and the noise
+  std::vector<float> gate_in;    // kBlock rows of kH + 1: the members' max-pool, the noise
   std::vector<float> global, hidden;
   std::vector<double> score;  // each member's score, then its weight (softplus)
 };
@@ -124,24 +123,24 @@ void member_weights(const Layers& l, const MemberFeatures& features, Eigen::Inde
   m.e1.resize(rows * kH);
   m.e2.resize(rows * kH);
   m.z.resize(rows * kH);
-  m.pooled.resize(n * kH);
   m.gate_in.resize(n * (kH + 1));
   m.global.resize(n * kH);
   m.hidden.resize(n * kG);
-  detail::dense_rows(features.data(), rows, kF, l.w1.data(), kB1.data(), rows, true, m.e1.data());
-  detail::dense_rows(m.e1.data(), rows, kH, l.w2.data(), kB2.data(), rows, true, m.e2.data());
-  for (size_t r = 0; r < n; ++r) {  // max over each point's members; the gate's input
-    float* p = &m.pooled[r * kH];
+  detail::dense_rows(features.data(), kF, rows, kF, l.w1.data(), kB1.data(), rows, true,
+                     m.e1.data());
+  detail::dense_rows(m.e1.data(), kH, rows, kH, l.w2.data(), kB2.data(), rows, true, m.e2.data());
+  for (size_t r = 0; r < n; ++r) {  // max over each point's members, then the noise: gate_in
+    float* p = &m.gate_in[r * (kH + 1)];
     std::copy_n(&m.e2[r * kM * kH], kH, p);
     for (size_t j = 1; j < size_t(kM); ++j)
       for (int c = 0; c < kH; ++c) p[c] = std::max(p[c], m.e2[(r * kM + j) * kH + size_t(c)]);
-    std::copy_n(p, kH, &m.gate_in[r * (kH + 1)]);
-    m.gate_in[r * (kH + 1) + kH] = noise;
+    p[kH] = noise;
   }
-  detail::dense_rows(m.pooled.data(), n, kH, l.w3_pooled.data(), kB3.data(), n, false,
+  // The pooled layer reads the max-pool part of gate_in's rows.
+  detail::dense_rows(m.gate_in.data(), kH + 1, n, kH, l.w3_pooled.data(), kB3.data(), n, false,
                      m.global.data());
   // Each member with its point's pooled term as the bias.
-  detail::dense_rows(m.e2.data(), rows, kH, l.w3_member.data(), m.global.data(), kM, true,
+  detail::dense_rows(m.e2.data(), kH, rows, kH, l.w3_member.data(), m.global.data(), kM, true,
                      m.z.data());
   m.score.resize(rows);
   for (size_t j = 0; j < rows; ++j) {
@@ -152,7 +151,7 @@ void member_weights(const Layers& l, const MemberFeatures& features, Eigen::Inde
   detail::softplus_batch(m.score.data(), m.score.data(), rows);
   weights.resize(Eigen::Index(rows));
   for (size_t j = 0; j < rows; ++j) weights[Eigen::Index(j)] = float(m.score[j]);
-  detail::dense_rows(m.gate_in.data(), n, kH + 1, l.g1.data(), kGB1.data(), n, true,
+  detail::dense_rows(m.gate_in.data(), kH + 1, n, kH + 1, l.g1.data(), kGB1.data(), n, true,
                      m.hidden.data());
   gates.resize(len);
   for (size_t r = 0; r < n; ++r) {
