@@ -103,7 +103,10 @@ bool LeafBatch::run(const FloatCloud& cloud, const TreeShape& shape, uint32_t a,
   const double rho = leaf_ball(cloud, a, b, centre);
   for (int attempt = 0; attempt < kWidenings; ++attempt, radius *= kWiden) {
     const double reach = (double(radius) + rho) * (1 + kMargin);
-    gather(shape, cloud, centre, float(reach * reach));
+    ball_.gather(shape, cloud, centre, float(reach * reach));
+    dist_.resize(ball_.size());
+    near_.resize(ball_.size());
+    near_d_.resize(ball_.size());
     const float r2 = radius * radius;
     bool all = true;
     for (uint32_t p = a; p < b && all; ++p) {
@@ -118,73 +121,6 @@ bool LeafBatch::run(const FloatCloud& cloud, const TreeShape& shape, uint32_t a,
     return true;
   }
   return false;
-}
-
-/// Every point within sqrt(r2) of centre, as candidates in columns (x_, y_, z_) for select():
-/// nanoflann's radius search (the same descent, pruning and float distances, hence the same
-/// points), walked over the flat TreeShape and writing the columns directly.
-void LeafBatch::gather(const TreeShape& shape, const FloatCloud& cloud, const float* centre,
-                       float r2) {
-  count_ = 0;
-  float dists[3] = {0.f, 0.f, 0.f};
-  descend(shape, cloud, 0, 0.f, dists, centre, r2);
-  const size_t n = count_;
-  pos_.resize(n);
-  x_.resize(n);
-  y_.resize(n);
-  z_.resize(n);
-  dist_.resize(n);
-  near_.resize(n);
-  near_d_.resize(n);
-}
-
-/// gather's descent from node `id`, `mindist` the squared distance from the centre to the
-/// node's cell as nanoflann bounds it (per axis in `dists`): the nearer child first, the other
-/// when its cell may reach within sqrt(r2).
-void LeafBatch::descend(const TreeShape& shape, const FloatCloud& cloud, int32_t id, float mindist,
-                        float* dists, const float* centre, float r2) {
-  const TreeShape::Node& node = shape.nodes[size_t(id)];
-  if (node.child1 < 0) {
-    add_leaf(cloud, node.boundary, node.end, centre, r2);
-    return;
-  }
-  const int f = node.divfeat;
-  const float diff1 = centre[f] - node.divlow, diff2 = centre[f] - node.divhigh;
-  const bool low = (diff1 + diff2) < 0;
-  const float cut = low ? diff2 * diff2 : diff1 * diff1;
-  descend(shape, cloud, low ? node.child1 : node.child2, mindist, dists, centre, r2);
-  const float saved = dists[f];
-  mindist = mindist + cut - saved;
-  dists[f] = cut;
-  if (mindist <= r2)
-    descend(shape, cloud, low ? node.child2 : node.child1, mindist, dists, centre, r2);
-  dists[f] = saved;
-}
-
-/// The points of positions [a, b) within sqrt(r2) of centre appended to the candidates
-/// (distances as L2_Simple_Adaptor: float, centre minus point, x + y + z; branch-free).
-void LeafBatch::add_leaf(const FloatCloud& cloud, uint32_t a, uint32_t b, const float* centre,
-                         float r2) {
-  if (count_ + (b - a) > pos_.size()) {
-    const size_t grown = std::max(2 * pos_.size(), count_ + (b - a) + 256);
-    pos_.resize(grown);
-    x_.resize(grown);
-    y_.resize(grown);
-    z_.resize(grown);
-  }
-  for (uint32_t p = a; p < b; ++p) {
-    const float* v = &cloud.xyz[3 * size_t(p)];
-    const float dx = centre[0] - v[0], dy = centre[1] - v[1], dz = centre[2] - v[2];
-    float d = 0.f;
-    d += dx * dx;
-    d += dy * dy;
-    d += dz * dz;
-    pos_[count_] = p;
-    x_[count_] = v[0];
-    y_[count_] = v[1];
-    z_[count_] = v[2];
-    count_ += size_t(d < r2);
-  }
 }
 
 /// The candidates whose distance is below lim into near_ / near_d_, in their order; their
@@ -203,12 +139,14 @@ size_t LeafBatch::keep_below(float lim) {
 /// (distance, visit) into row t; false when fewer than kk lie within. Only the candidates
 /// below bound2 (<= r2) are ordered when kk of them are: the kk nearest are then among them.
 bool LeafBatch::select(const TreeShape& shape, const float* q, float r2, float bound2, size_t t) {
-  const size_t n = pos_.size();
+  const size_t n = ball_.size();
+  const float *x = ball_.x(), *y = ball_.y(), *z = ball_.z();
+  const uint32_t* pos = ball_.pos();
   // Squared distances as nanoflann's L2_Simple_Adaptor computes them (float, the query minus
   // the point, summed x, y, z in that order), so that equal distances stay equal; on columns,
   // so that the loop vectorises.
   for (size_t j = 0; j < n; ++j) {
-    const float dx = q[0] - x_[j], dy = q[1] - y_[j], dz = q[2] - z_[j];
+    const float dx = q[0] - x[j], dy = q[1] - y[j], dz = q[2] - z[j];
     float d = 0.f;
     d += dx * dx;
     d += dy * dy;
@@ -219,13 +157,13 @@ bool LeafBatch::select(const TreeShape& shape, const float* q, float r2, float b
   if (c < size_t(kk_) && bound2 < r2) c = keep_below(bound2 = r2);
   if (!order_.sort(near_d_.data(), c, bound2, kk_)) return false;
   order_.order_ties(near_d_.data(), kk_, [&](uint32_t u, uint32_t v) {
-    return visits_before(shape, q, pos_[near_[u]], pos_[near_[v]]);
+    return visits_before(shape, q, pos[near_[u]], pos[near_[v]]);
   });
   uint32_t* idx = idx_.data() + t * size_t(kk_);
   float* d2 = d2_.data() + t * size_t(kk_);
   for (int j = 0; j < kk_; ++j) {
     const uint32_t m = order_[size_t(j)];
-    idx[j] = pos_[near_[m]];
+    idx[j] = pos[near_[m]];
     d2[j] = near_d_[m];
   }
   return true;

@@ -7,6 +7,7 @@
 // the query's own search would visit them in, kdtree.hpp's visits_before).
 #pragma once
 
+#include "neighbors/ball_search.hpp"
 #include "neighbors/first_k.hpp"
 #include "neighbors/kdtree.hpp"
 
@@ -30,19 +31,14 @@ class LeafBatch {
   const float* distances(size_t t) const { return d2_.data() + t * size_t(kk_); }
 
  private:
-  void gather(const TreeShape& shape, const FloatCloud& cloud, const float* centre, float r2);
-  void descend(const TreeShape& shape, const FloatCloud& cloud, int32_t id, float mindist,
-               float* dists, const float* centre, float r2);
-  void add_leaf(const FloatCloud& cloud, uint32_t a, uint32_t b, const float* centre, float r2);
   bool select(const TreeShape& shape, const float* q, float r2, float bound2, size_t t);
   size_t keep_below(float lim);
 
   int kk_ = 0;
-  size_t count_ = 0;                     // candidates gathered so far
-  std::vector<uint32_t> pos_;            // candidates: positions and coordinates
-  std::vector<float> x_, y_, z_, dist_;  // and each candidate's distance to the query
-  std::vector<uint32_t> near_;           // the candidates below a bound (keep_below)
-  std::vector<float> near_d_;            // and their distances
+  Ball ball_;                   // the candidates: every point within reach of the leaf
+  std::vector<float> dist_;     // each candidate's distance to the query
+  std::vector<uint32_t> near_;  // the candidates below a bound (keep_below)
+  std::vector<float> near_d_;   // and their distances
   FirstK order_;
   std::vector<uint32_t> idx_;
   std::vector<float> d2_;

@@ -8,6 +8,7 @@
 // back to input order.
 #include "nhnet/neighbors/neighbors.hpp"
 
+#include "neighbors/ball_search.hpp"
 #include "neighbors/first_k.hpp"
 #include "neighbors/kdtree.hpp"
 #include "neighbors/leaf_batch.hpp"
@@ -128,24 +129,26 @@ class HeapResultSet {
 // From this many neighbours on, the heap replaces KNNResultSet's insertion.
 constexpr int kHeapFrom = 48;
 
+/// What the searches read of Neighbors::Impl.
+struct TreeView {
+  const Tree& tree;
+  const FloatCloud& cloud;
+  const detail::TreeShape& shape;
+  const std::vector<uint32_t>& original;
+};
+
 /// k nearest of q from a radius search: every point strictly within sqrt(r2) in the search's
 /// visiting order, the first k of them by (distance, visit) — what KNNResultSet keeps, ties
 /// included, since the k-NN search visits the same nodes in the same order and skips only
 /// subtrees strictly farther than its k-th. False when fewer than k lie within the radius.
-template <class TreeT>
-bool knn_by_radius(const TreeT& tree, const float* q, int kk, float r2, uint32_t* idx, float* d2) {
-  thread_local std::vector<std::pair<uint32_t, float>> found;
-  thread_local std::vector<float> dist;
+bool knn_by_radius(const TreeView& v, const float* q, int kk, float r2, uint32_t* idx, float* d2) {
+  thread_local detail::Ball ball;
   thread_local detail::FirstK first;
-  nanoflann::RadiusResultSet<float, uint32_t> set(r2, found);
-  tree.findNeighbors(set, q, nanoflann::SearchParams(32, 0.f, false));
-  const size_t n = found.size();
-  dist.resize(n);
-  for (size_t t = 0; t < n; ++t) dist[t] = found[t].second;  // each below r2
-  if (!first.sort(dist.data(), n, r2, kk)) return false;
+  ball.gather(v.shape, v.cloud, q, r2);
+  if (!first.sort(ball.d2(), ball.size(), r2, kk)) return false;
   for (int j = 0; j < kk; ++j) {
-    idx[j] = found[first[size_t(j)]].first;
-    d2[j] = dist[first[size_t(j)]];
+    idx[j] = ball.pos()[first[size_t(j)]];
+    d2[j] = ball.d2()[first[size_t(j)]];
   }
   return true;
 }
@@ -155,18 +158,17 @@ bool knn_by_radius(const TreeT& tree, const float* q, int kk, float r2, uint32_t
 // order, so the previous one is close by) widened by 20 %, widened again when it holds fewer
 // than k points, else the heap. A radius search adds every point within it in O(1); the
 // k-NN search's worst distance shrinks slowly at large k and admits thousands of points.
-template <class TreeT>
-size_t knn_search(const TreeT& tree, const float* q, int kk, uint32_t* idx, float* d2) {
-  if (kk < kHeapFrom) return tree.knnSearch(q, size_t(kk), idx, d2);
+size_t knn_search(const TreeView& v, const float* q, int kk, uint32_t* idx, float* d2) {
+  if (kk < kHeapFrom) return v.tree.knnSearch(q, size_t(kk), idx, d2);
   thread_local float last_r2 = 0;
   for (float r2 = last_r2 * 1.44f; r2 > 0 && r2 < last_r2 * 12.f; r2 *= 2.25f)
-    if (knn_by_radius(tree, q, kk, r2, idx, d2)) {
+    if (knn_by_radius(v, q, kk, r2, idx, d2)) {
       last_r2 = d2[kk - 1];
       return size_t(kk);
     }
   thread_local HeapResultSet set;
   set.init(size_t(kk));
-  tree.findNeighbors(set, q, nanoflann::SearchParams());
+  v.tree.findNeighbors(set, q, nanoflann::SearchParams());
   const size_t found = set.size();
   set.sorted(idx, d2);
   if (found == size_t(kk)) last_r2 = d2[kk - 1];
@@ -191,16 +193,14 @@ void write_row(const std::vector<uint32_t>& original, uint32_t p, int kk, const 
 }
 
 // One kNN query of the point at leaf position p, self first; writes row `out` of the tables.
-template <class TreeT>
-void query_row(const TreeT& tree, const FloatCloud& cloud, const std::vector<uint32_t>& original,
-               int64_t p, int kk, Eigen::Index out, IndexMatrix& indices,
+void query_row(const TreeView& v, int64_t p, int kk, Eigen::Index out, IndexMatrix& indices,
                DistanceMatrix* sq_distances) {
   thread_local std::vector<uint32_t> idx;
   thread_local std::vector<float> d2;
   idx.resize(kk);
   d2.resize(kk);
-  knn_search(tree, &cloud.xyz[3 * p], kk, idx.data(), d2.data());
-  write_row(original, uint32_t(p), kk, idx.data(), d2.data(), out, indices, sq_distances);
+  knn_search(v, &v.cloud.xyz[3 * p], kk, idx.data(), d2.data());
+  write_row(v.original, uint32_t(p), kk, idx.data(), d2.data(), out, indices, sq_distances);
 }
 
 // From this many neighbours on, knn_all searches one leaf at a time (leaf_batch.hpp); below it
@@ -208,13 +208,6 @@ void query_row(const TreeT& tree, const FloatCloud& cloud, const std::vector<uin
 // docs/design/decisions.md#k-nn-one-leaf-at-a-time).
 constexpr int kLeafBatchFrom = 24;
 
-/// What leaf_rows() reads of Neighbors::Impl.
-struct TreeView {
-  const Tree& tree;
-  const FloatCloud& cloud;
-  const detail::TreeShape& shape;
-  const std::vector<uint32_t>& original;
-};
 /// knn_all one leaf at a time: the rows of leaf `leaf`'s points; `radius` carries each thread's
 /// guess of the k-th distance from leaf to leaf (0: none yet, taken from a search of the leaf's
 /// first point).
@@ -233,10 +226,10 @@ void Neighbors::knn_all(int k, IndexMatrix& indices, DistanceMatrix* sq_distance
   if (run.progress) progress.stage("neighbours", 0, 1);
   const std::vector<uint32_t>& original = impl_->original;
   detail::Progress* shown = run.progress ? &progress : nullptr;
+  const TreeView view{*impl_->tree, impl_->cloud, impl_->shape, original};
   if (kk >= kLeafBatchFrom) {
     const int64_t leaves = int64_t(impl_->shape.leaf_start.size()) - 1;
     std::vector<float> radius(size_t(detail::thread_count(run.threads)), 0.f);
-    const TreeView view{*impl_->tree, impl_->cloud, impl_->shape, original};
     detail::parallel_for(leaves, run.threads, shown, [&](int64_t leaf) {
       leaf_rows(view, size_t(leaf), kk, radius[size_t(omp_get_thread_num())], indices,
                 sq_distances);
@@ -245,8 +238,7 @@ void Neighbors::knn_all(int k, IndexMatrix& indices, DistanceMatrix* sq_distance
   }
   // Queries in leaf order (p): consecutive queries walk the same nodes and leaves.
   detail::parallel_for(n, run.threads, shown, [&](int64_t p) {
-    query_row(*impl_->tree, impl_->cloud, original, p, kk, Eigen::Index(original[size_t(p)]),
-              indices, sq_distances);
+    query_row(view, p, kk, Eigen::Index(original[size_t(p)]), indices, sq_distances);
   });
 }
 
@@ -260,7 +252,7 @@ void leaf_rows(const TreeView& impl, size_t leaf, int kk, float& radius, IndexMa
     thread_local std::vector<float> d2;
     idx.resize(size_t(kk));
     d2.resize(size_t(kk));
-    knn_search(impl.tree, &impl.cloud.xyz[3 * size_t(a)], kk, idx.data(), d2.data());
+    knn_search(impl, &impl.cloud.xyz[3 * size_t(a)], kk, idx.data(), d2.data());
     radius = std::sqrt(d2[size_t(kk) - 1]) * detail::LeafBatch::kNextGuess;
   }
   if (radius > 0 && batch.run(impl.cloud, impl.shape, a, b, kk, radius)) {
@@ -271,8 +263,7 @@ void leaf_rows(const TreeView& impl, size_t leaf, int kk, float& radius, IndexMa
   }
   radius = 0;  // start afresh at the next leaf
   for (uint32_t p = a; p < b; ++p)
-    query_row(impl.tree, impl.cloud, impl.original, p, kk, Eigen::Index(impl.original[p]), indices,
-              sq_distances);
+    query_row(impl, p, kk, Eigen::Index(impl.original[p]), indices, sq_distances);
 }
 }  // namespace
 
@@ -297,9 +288,9 @@ void Neighbors::knn_rows(int k, const std::vector<int64_t>& rows, IndexMatrix& i
   if (sq_distances) detail::resize_fresh(*sq_distances, r, kk);
   detail::Progress progress(run.progress);
   if (run.progress) progress.stage("neighbours", 0, 1);
+  const TreeView view{*impl_->tree, impl_->cloud, impl_->shape, impl_->original};
   detail::parallel_for(r, run.threads, run.progress ? &progress : nullptr, [&](int64_t i) {
-    query_row(*impl_->tree, impl_->cloud, impl_->original, leaf[size_t(i)], kk, Eigen::Index(i),
-              indices, sq_distances);
+    query_row(view, leaf[size_t(i)], kk, Eigen::Index(i), indices, sq_distances);
   });
 }
 
