@@ -5,8 +5,7 @@
 
 namespace nhnet::detail {
 
-void Ball::gather(const TreeShape& shape, const FloatCloud& cloud, const float* centre,
-                  float r2) {
+void Ball::gather(const TreeShape& shape, const FloatCloud& cloud, const float* centre, float r2) {
   size_ = 0;
   if (shape.nodes.empty()) return;
   float dists[3] = {0.f, 0.f, 0.f};  // the centre is inside the root's cell (a cloud point)

@@ -80,14 +80,18 @@ int8_t grid_vote(const Grid& g, const Eigen::RowVector3d& p, const Eigen::RowVec
       std::abs(n[0]) < 0.9 ? Eigen::RowVector3d(1, 0, 0) : Eigen::RowVector3d(0, 1, 0);
   t1 = (t1 - t1.dot(n) * n).normalized();
   const Eigen::RowVector3d t2 = n.cross(t1);
+  // cos and sin of the six azimuths k pi / 3 (computed once; the same values as per call).
+  static const std::array<std::array<double, 2>, 6> azimuth = [] {
+    std::array<std::array<double, 2>, 6> a{};
+    for (int k = 0; k < 6; ++k) {
+      const double phi = double(k) * M_PI / 3;
+      a[size_t(k)] = {std::cos(phi), std::sin(phi)};
+    }
+    return a;
+  }();
   int sum = 0;
-  for (int k = 0; k < 6; ++k) {
-    const double phi = double(k) * M_PI / 3;
-    sum += side(
-        g, p,
-        std::cos(M_PI / 6) * n + std::sin(M_PI / 6) * (std::cos(phi) * t1 + std::sin(phi) * t2),
-        nullptr, 0);
-  }
+  for (const auto& [c, s] : azimuth)
+    sum += side(g, p, std::cos(M_PI / 6) * n + std::sin(M_PI / 6) * (c * t1 + s * t2), nullptr, 0);
   return int8_t(sum > 0 ? 1 : sum < 0 ? -1 : 0);
 }
 
