@@ -76,7 +76,8 @@ TEST(BallSearch, SamePointsInTheSameOrderAsNanoflann) {
   for (Eigen::Index i = 0; i < grid.rows(); ++i) grid.row(i) << (i % 12), (i / 12) % 12, i / 144;
   nhnet::Points dup(1500, 3);
   for (Eigen::Index i = 0; i < dup.rows(); ++i) dup.row(i) = sphere.row(i % 500);
-  for (const nhnet::Points* pts : std::initializer_list<const nhnet::Points*>{&sphere, &grid, &dup}) {
+  for (const nhnet::Points* pts :
+       std::initializer_list<const nhnet::Points*>{&sphere, &grid, &dup}) {
     const LeafOrderTree t(as_floats(*pts));
     const float extent = pts == &grid ? 12.f : 1.f;
     for (size_t p = 0; p < t.cloud.kdtree_get_point_count(); p += 37) {
