@@ -3,6 +3,7 @@
 #include "estimate_args.hpp"
 
 #include "cloud_io.hpp"
+#include "json.hpp"
 #include "nhnet/errors.hpp"
 #include "nhnet/io/io.hpp"
 
@@ -73,6 +74,14 @@ void add_method_options(CLI::App* sub, EstimateArgs& a) {
                   "MFPS patch sizes: auto or a list like 50,100,150 " +
                       default_note(scales_text(core.mfps.scales)))
       ->type_name("LIST");
+  sub->add_option("--cell-means", a.cell_means,
+                  "Dense clouds whose noise is as large as their spacing (noise ratio >= " +
+                      json_number(nhnet::EstimateOptions{}.cell_means.noise_ratio) +
+                      "): estimate on the means of small cubes and give each point its nearest "
+                      "mean's normal, several times faster there (auto), or always on the points "
+                      "themselves (off) " +
+                      default_note(a.cell_means))
+      ->type_name("auto|off");
   add_threads_option(sub, a.threads);
   sub->add_option("--tile-points", a.tile_points,
                   "Clouds with more points are processed in spatial tiles of at most N points "
@@ -176,6 +185,9 @@ Setup prepare(const EstimateArgs& a) {
     throw nhnet::InvalidOptions("--learned-fit must be on or off, got '" + a.learned_fit + "'");
   opt.model.learned_fit = a.learned_fit == "on";
   opt.model.refine = nhnet::refine_from_string(a.refine);
+  if (a.cell_means != "auto" && a.cell_means != "off")
+    throw nhnet::InvalidOptions("--cell-means must be auto or off, got '" + a.cell_means + "'");
+  if (a.cell_means == "off") opt.cell_means.noise_ratio = 0;
   if (opt.method != nhnet::Method::NhNet && nhnet_asked)
     throw nhnet::InvalidOptions(
         "--model, --device, --precision, --candidate-mix, --learned-fit and --refine only "

@@ -84,13 +84,15 @@ void print_estimate_line(const EstimateSummary& s) {
   const std::string tiles = s.streamed    ? ", streamed in " + std::to_string(s.tiles) + " tiles"
                             : s.tiles > 1 ? ", " + std::to_string(s.tiles) + " tiles"
                                           : std::string();
+  const std::string means =
+      s.cell_means > 0 ? ", through " + std::to_string(s.cell_means) + " cell means" : "";
   std::ostringstream line;
   line << "nhnet-cli: " << s.points << " points, " << s.failed << " failed, method "
        << nhnet::to_string(s.method)
        << (nhnet ? nhnet::network_phrase(s.device, s.precision) : std::string()) << ", k " << s.k
        << ", scales " << (s.scales.empty() ? std::string("-") : join(s.scales, "/"))
-       << ", noise ratio " << noise << ", " << s.candidates << " candidates" << tiles << ", orient "
-       << orient_summary(s.orient, s.orient_source, s.orient_result) << ", " << secs
+       << ", noise ratio " << noise << ", " << s.candidates << " candidates" << means << tiles
+       << ", orient " << orient_summary(s.orient, s.orient_source, s.orient_result) << ", " << secs
        << " s, output " << s.out;
   std::cerr << line.str() << std::endl;
 }
@@ -107,7 +109,8 @@ void print_estimate_json(const EstimateSummary& s) {
      << ", \"k\": " << s.k << ", \"scales\": [" << join(s.scales, ", ") << "]"
      << ", \"noise_ratio\": " << json_number(s.noise_ratio)
      << ", \"spacing\": " << json_number(s.spacing) << ", \"candidates\": " << s.candidates
-     << ", \"tiles\": " << s.tiles << (s.streamed ? ", \"streamed\": true" : "") << ", "
+     << ", \"cell_means\": " << s.cell_means << ", \"tiles\": " << s.tiles
+     << (s.streamed ? ", \"streamed\": true" : "") << ", "
      << orient_json(s.orient, s.orient_source, s.orient_result) << ", \"warnings\": " << s.warnings
      << ", \"seconds\": " << json_number(s.seconds, 4) << "}";
   std::cout << js.str() << std::endl;

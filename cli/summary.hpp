@@ -28,6 +28,7 @@ struct EstimateSummary {
   double noise_ratio = 0, spacing = 0;
   int64_t candidates = 0;
   int tiles = 1;
+  int64_t cell_means = 0;  ///< EstimateResult::cell_means (0: the points themselves)
   bool streamed = false;
   size_t warnings = 0;
   nhnet::OrientOptions orient;

@@ -31,8 +31,9 @@ PyEstimateResult estimate(const py::handle& points, const std::optional<std::str
                           const py::object& orient, const py::object& viewpoint,
                           const py::object& progress, const std::string& refine,
                           const std::optional<std::string>& model, const std::string& device,
-                          const std::string& precision, bool learned_fit) {
+                          const std::string& precision, bool learned_fit, bool cell_means) {
   EstimateOptions opt;
+  if (!cell_means) opt.cell_means.noise_ratio = 0;
   opt.method = method ? method_from_string(*method) : default_method();
   opt.model.refine = refine_from_string(refine);
   if (model) opt.model.path = *model;
@@ -122,6 +123,11 @@ precision : {'auto', 'float32', 'bfloat16'} (nhnet.PRECISIONS, the default first
 learned_fit : bool
     NH-Net only (nhnet-cli --learned-fit): refit each normal of the candidate mix by the learned
     weighted jet fit (default True); False keeps the mix's normals.
+cell_means : bool
+    nhnet-cli --cell-means: True (default) estimates a dense cloud whose noise is as large as its
+    spacing (noise ratio >= 1, at least 200 000 points, automatic sizes) on the means of small
+    cubes, each point taking its nearest mean's normal: several times faster there, as accurate;
+    False always estimates the points themselves. `cell_means` on the result says which ran.
 
 The GIL is released while the core runs; Ctrl-C interrupts it (KeyboardInterrupt).
 
@@ -156,6 +162,10 @@ void register_result(py::module_& m) {
                              "Average distance to the nearest other point, input units.")
       .def_property_readonly("k_used", core_field<PyEstimateResult>(&EstimateResult::k_used),
                              "PCA neighbourhood size used.")
+      .def_property_readonly("cell_means",
+                             core_field<PyEstimateResult>(&EstimateResult::cell_means),
+                             "Cell means the estimate ran on (see estimate's cell_means); 0 = "
+                             "the points themselves.")
       .def_property_readonly("scales_used",
                              core_field<PyEstimateResult>(&EstimateResult::scales_used),
                              "MFPS patch sizes used (empty for PCA).")
@@ -201,7 +211,8 @@ void register_estimate(py::module_& m) {
       py::arg("viewpoint") = py::none(), py::arg("progress") = py::none(),
       py::arg("refine") = to_string(defaults.model.refine), py::arg("model") = py::none(),
       py::arg("device") = defaults.model.device, py::arg("precision") = defaults.model.precision,
-      py::arg("learned_fit") = defaults.model.learned_fit);
+      py::arg("learned_fit") = defaults.model.learned_fit,
+      py::arg("cell_means") = defaults.cell_means.noise_ratio > 0);
   std::apply([&](const auto&... a) { m.def("estimate", &estimate, estimate_doc.c_str(), a...); },
              args);
 
@@ -216,10 +227,11 @@ void register_estimate(py::module_& m) {
          std::optional<std::vector<int>> scales, int threads, uint64_t seed,
          const py::object& orient, const py::object& viewpoint, const py::object& progress,
          const std::string& refine, const std::optional<std::string>& model,
-         const std::string& device, const std::string& precision, bool learned_fit) {
+         const std::string& device, const std::string& precision, bool learned_fit,
+         bool cell_means) {
         PyEstimateResult r =
             estimate(points, method, k, std::move(scales), threads, seed, orient, viewpoint,
-                     progress, refine, model, device, precision, learned_fit);
+                     progress, refine, model, device, precision, learned_fit, cell_means);
         for (const std::string& w : r.core.warnings)
           if (PyErr_WarnEx(PyExc_RuntimeWarning, ("nhnet: " + w).c_str(), 1) != 0)
             throw py::error_already_set();

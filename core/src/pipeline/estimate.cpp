@@ -14,6 +14,7 @@
 #include "nhnet/learned/candidate_mix.hpp"
 #include "nhnet/learned/learned_fit.hpp"
 #include "nhnet/neighbors/neighbors.hpp"
+#include "pipeline/cell_means.hpp"
 #include "pipeline/estimator.hpp"
 #include "util/parallel.hpp"
 #include "util/spread.hpp"
@@ -231,6 +232,8 @@ void check_options(const EstimateOptions& options) {
   if (options.mfps.samples < 1) throw InvalidOptions("mfps samples must be >= 1");
   if (options.tiles.points < 0) throw InvalidOptions("tile points must be >= 0 (0 = no tiles)");
   if (!(options.tiles.halo > 0)) throw InvalidOptions("tile halo must be > 0");
+  if (!(options.cell_means.noise_ratio >= 0) || !(options.cell_means.edge > 0))
+    throw InvalidOptions("cell means need a noise ratio >= 0 (0 = off) and an edge > 0");
   if (options.method == Method::NhNet && options.model.batch < 1)
     throw InvalidOptions("nhnet batch must be >= 1");
 }
@@ -637,10 +640,22 @@ void hand_neighbours(EstimateResult& res, OrientOptions& orient) {
   res.neighbours.resize(0, 0);
 }
 
+namespace detail {
+
+EstimateResult estimate_points(const Points& points, const EstimateOptions& options,
+                               const TileOverrides& overrides) {
+  if (wants_tiles(points, options)) return estimate_tiled(points, options);
+  return estimate_cloud(points, options, overrides);
+}
+
+}  // namespace detail
+
 EstimateResult estimate_normals(const Points& points, const EstimateOptions& options) {
   detail::check_options(options);
-  if (detail::wants_tiles(points, options)) return detail::estimate_tiled(points, options);
-  return detail::estimate_cloud(points, options, detail::TileOverrides{});
+  EstimateResult res;
+  detail::TileOverrides measured;
+  if (detail::through_cell_means(points, options, res, measured)) return res;
+  return detail::estimate_points(points, options, measured);
 }
 
 }  // namespace nhnet

@@ -37,6 +37,11 @@ EstimateResult empty_result(Eigen::Index n);
 EstimateResult estimate_cloud(const Points& points, const EstimateOptions& options,
                               const TileOverrides& overrides);
 
+/// `points` in tiles when they want them (estimate_tiled), else in one piece (estimate_cloud with
+/// `overrides`): estimate_normals after its cell-mean decision. Options are already checked.
+EstimateResult estimate_points(const Points& points, const EstimateOptions& options,
+                               const TileOverrides& overrides);
+
 /// What the geometry stage knows besides its normals, for NH-Net's candidate mix
 /// (learned/candidate_mix.hpp); input rows, like EstimateResult.
 struct GeometrySide {

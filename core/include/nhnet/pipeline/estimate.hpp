@@ -61,6 +61,24 @@ struct TileOptions {
   double halo = 4;
 };
 
+/// Dense noisy clouds through cell means (not in the paper; pipeline/cell_means.cpp, issue 23):
+/// where the noise is as large as the point spacing, the noise-driven neighbourhoods reach
+/// hundreds of points and every stage's cost grows with them. The estimate then runs on the means
+/// of the points in cubes a few noise deviations wide (each mean averages the noise of its
+/// points, as a large neighbourhood would) and every point takes its nearest mean's normal, so
+/// the time per point stays flat across noise levels. 1M-point clouds at 0.6 % noise: RMS level
+/// or lower, 4-5x less estimate time (docs/design/decisions.md#cell-means-for-dense-noisy-clouds).
+struct CellMeanOptions {
+  /// Noise ratio (EstimateResult::noise_ratio) from which a cloud goes through cell means; 0 =
+  /// never. 1.0 is where the noise-driven PCA k reaches its largest size (scales.cpp).
+  double noise_ratio = 1.0;
+  /// Cube edge, in standard deviations of the noise (noise ratio x spacing).
+  double edge = 3;
+  /// Clouds with fewer finite points are estimated themselves (the decision's noise probe
+  /// would cost a second one; small clouds are fast at any k).
+  int64_t min_points = 200000;
+};
+
 /// Everything estimate_normals() takes: the method and its neighbourhood size, then one options
 /// struct per stage, each with its defaults in its own header. Every front end (CLI, Python, PCL
 /// class, plugins) starts from these defaults.
@@ -79,9 +97,13 @@ struct EstimateOptions {
   ModelOptions model;
   /// Spatial tiles (TileOptions above).
   TileOptions tiles;
+  /// Dense noisy clouds through cell means (CellMeanOptions above); only with automatic sizes
+  /// (k and MFPS scales 0 / empty).
+  CellMeanOptions cell_means;
   /// Also return each point's this many nearest rows (EstimateResult::neighbours), for an MST
   /// orientation to reuse instead of searching again (shared_neighbours(), orient.hpp); 0 =
-  /// none. Returned only by a run in one piece over distinct finite points.
+  /// none. Returned only by a run in one piece over distinct finite points, not through cell
+  /// means.
   int neighbours = 0;
   /// Threads (0 = all cores) and progress/cancel callback.
   RunContext run;
@@ -103,6 +125,10 @@ struct EstimateResult {
   std::vector<uint8_t> candidate;
   /// Spatial tiles the cloud was processed in (1 = untiled; see tile_points).
   int tiles = 1;
+  /// Cell means the estimate ran on (CellMeanOptions; each point has its nearest mean's normal,
+  /// curvature and candidate flag; k_used and scales_used are the means'); 0 = the points
+  /// themselves.
+  int64_t cell_means = 0;
   /// Estimated noise level: residual bandwidth / average point spacing (dimensionless).
   double noise_ratio = 0;
   /// Average spacing of the cloud (mean distance to the nearest other point), input units.
