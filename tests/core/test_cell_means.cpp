@@ -7,6 +7,7 @@
 #include "nhnet/errors.hpp"
 #include "nhnet/eval/metrics.hpp"
 #include "nhnet/pipeline/estimate.hpp"
+#include "nhnet/pipeline/estimate_oriented.hpp"
 
 #include <gtest/gtest.h>
 
@@ -83,6 +84,31 @@ TEST(CellMeans, OtherCloudsKeepThePointsOwnEstimate) {
   EstimateOptions few = on;  // fewer finite points than min_points
   few.cell_means.min_points = 40001;
   EXPECT_EQ(estimate_normals(noisy.points, few).cell_means, 0);
+}
+
+TEST(CellMeans, GraphOrientationsOrientTheMeansAndEveryPointTakesItsMeansSign) {
+  const fixtures::Fixture f = noisy_sphere();
+  for (const OrientMode mode : {OrientMode::Mst, OrientMode::Up}) {
+    OrientOptions orient;
+    orient.mode = mode;
+    const OrientedResult r =
+        estimate_oriented(f.points, small_cloud_options(Method::Pca), orient, RunContext{2, {}});
+    ASSERT_GT(r.estimate.cell_means, 0);
+    EXPECT_EQ(r.orient.invalid, 0);
+    int64_t outward = 0, up = 0, upper = 0;
+    for (Eigen::Index i = 0; i < f.points.rows(); ++i) {
+      const double d = r.estimate.normals.row(i).dot(f.normals.row(i));
+      outward += d > 0;
+      if (f.normals(i, 2) > 0.5) {  // away from the equator, where up cannot decide
+        ++upper;
+        up += r.estimate.normals(i, 2) > 0;
+      }
+    }
+    if (mode == OrientMode::Mst)  // a closed sphere: the flood fill puts every normal outside
+      EXPECT_GE(double(outward) / double(f.points.rows()), 0.999);
+    else
+      EXPECT_EQ(up, upper);
+  }
 }
 
 TEST(CellMeans, NonFiniteRowsFailAndDuplicatesShareTheirFirstCopy) {

@@ -89,10 +89,42 @@ EstimateResult from_means(const Points& points, const Canonical& canon,
   return res;
 }
 
+/// The means, their normals and each input row's mean (rows without a valid mean: -1).
+void keep_means(const Canonical& canon, const std::vector<int32_t>& nearest,
+                const EstimateResult& of_means, Points&& means, MeansRun& keep) {
+  keep.mean_of_row.assign(canon.copies.size(), -1);
+  for (size_t c = 0; c < canon.rows.size(); ++c)
+    if (of_means.valid[size_t(nearest[c])]) keep.mean_of_row[size_t(canon.rows[c])] = nearest[c];
+  for (size_t i = 0; i < canon.copies.size(); ++i)
+    if (canon.copies[i] >= 0 && canon.copies[i] != int64_t(i))
+      keep.mean_of_row[i] = keep.mean_of_row[size_t(canon.copies[i])];
+  keep.means = std::move(means);
+  keep.normals = of_means.normals;
+  keep.unit = canon.unit;
+}
+
 }  // namespace
 
+OrientResult orient_through_means(MeansRun& run, EstimateResult& res, const OrientOptions& orient) {
+  OrientResult r = orient_normals(run.means, run.normals, orient);
+  r.voxel *= run.unit;
+  r.flipped = 0;
+  r.invalid = 0;
+  for (size_t i = 0; i < run.mean_of_row.size(); ++i) {
+    const int32_t m = run.mean_of_row[i];
+    if (m < 0) {
+      ++r.invalid;
+      continue;
+    }
+    const Eigen::RowVector3d n = run.normals.row(m);
+    if (n.dot(res.normals.row(Eigen::Index(i))) < 0) ++r.flipped;
+    res.normals.row(Eigen::Index(i)) = n;
+  }
+  return r;
+}
+
 bool through_cell_means(const Points& points, const EstimateOptions& options, EstimateResult& out,
-                        TileOverrides& measured) {
+                        TileOverrides& measured, MeansRun* keep) {
   const CellMeanOptions& cm = options.cell_means;
   if (!(cm.noise_ratio > 0) || options.k != 0 || !options.mfps.scales.empty() ||
       points.rows() < cm.min_points)
@@ -109,7 +141,7 @@ bool through_cell_means(const Points& points, const EstimateOptions& options, Es
 
   Progress top(run.progress);
   if (run.progress) top.stage("cell means", 0.04, 0.06);
-  const Points means = means_of_cells(canon.pts, cm.edge * probe.noise.ratio * probe.noise.spacing);
+  Points means = means_of_cells(canon.pts, cm.edge * probe.noise.ratio * probe.noise.spacing);
   top.throw_if_cancelled();
   if (means.rows() < 3) return false;
   EstimateOptions o = options;
@@ -119,6 +151,7 @@ bool through_cell_means(const Points& points, const EstimateOptions& options, Es
   EstimateResult of_means = estimate_points(means, o, TileOverrides{});
   for (const std::string& w : of_means.warnings) warnings.push_back("cell means: " + w);
   const std::vector<int32_t> nearest = nearest_means(canon.pts, means, narrow(run, 0.95, 1));
+  if (keep) keep_means(canon, nearest, of_means, std::move(means), *keep);
   out = from_means(points, canon, nearest, std::move(of_means));
   out.noise_ratio = probe.noise.ratio;
   out.spacing = measured.spacing;

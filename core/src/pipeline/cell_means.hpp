@@ -4,13 +4,40 @@
 
 #include "pipeline/estimator.hpp"
 
+#include "nhnet/orient/orient.hpp"
+
+#include <cstdint>
+#include <vector>
+
 namespace nhnet::detail {
+
+/// The means a cell-mean estimate ran on, kept for an orientation of the means
+/// (orient_through_means) instead of the points.
+struct MeansRun {
+  /// The means (M x 3, in the frame of the canonical points) and their estimated normals.
+  Points means;
+  Normals normals;
+  /// For every input row its mean's row; -1 for rows without a normal.
+  std::vector<int32_t> mean_of_row;
+  /// Input length of one unit of the means' frame.
+  double unit = 1;
+};
 
 /// When options.cell_means applies to `points` (automatic sizes, enough finite points, noise
 /// ratio at least its threshold): estimates them through cell means into `out` and returns true.
 /// Otherwise returns false and, when it probed the noise, leaves the cloud's noise ratio and
 /// spacing (input units) in `measured`, for estimate_points not to probe again.
+/// With `keep`, the means, their normals and each row's mean are moved there.
 bool through_cell_means(const Points& points, const EstimateOptions& options, EstimateResult& out,
-                        TileOverrides& measured);
+                        TileOverrides& measured, MeansRun* keep = nullptr);
+
+/// estimate_normals, keeping the means in `keep` (when given) when it ran through them.
+EstimateResult estimate_normals_keeping_means(const Points& points, const EstimateOptions& options,
+                                              MeansRun* keep);
+
+/// Orients the means of `run` (an MST or up orientation of the points would take 5-10 times
+/// longer) and gives every row of `res` its mean's oriented normal. Counts: flipped and invalid
+/// over the rows; unoriented, components and the flood fill's votes over the means.
+OrientResult orient_through_means(MeansRun& run, EstimateResult& res, const OrientOptions& orient);
 
 }  // namespace nhnet::detail

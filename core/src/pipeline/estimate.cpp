@@ -650,12 +650,21 @@ EstimateResult estimate_points(const Points& points, const EstimateOptions& opti
 
 }  // namespace detail
 
-EstimateResult estimate_normals(const Points& points, const EstimateOptions& options) {
-  detail::check_options(options);
+namespace detail {
+
+EstimateResult estimate_normals_keeping_means(const Points& points, const EstimateOptions& options,
+                                              MeansRun* keep) {
+  check_options(options);
   EstimateResult res;
-  detail::TileOverrides measured;
-  if (detail::through_cell_means(points, options, res, measured)) return res;
-  return detail::estimate_points(points, options, measured);
+  TileOverrides measured;
+  if (through_cell_means(points, options, res, measured, keep)) return res;
+  return estimate_points(points, options, measured);
+}
+
+}  // namespace detail
+
+EstimateResult estimate_normals(const Points& points, const EstimateOptions& options) {
+  return detail::estimate_normals_keeping_means(points, options, nullptr);
 }
 
 }  // namespace nhnet
