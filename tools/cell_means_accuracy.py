@@ -1,14 +1,16 @@
 """Accuracy and estimate time of dense noisy clouds with and without cell means (issue 23).
 
     PYTHONPATH=build/python:training /usr/bin/python3 tools/cell_means_accuracy.py \
-        [--points 1000000] [--threads 2] [--method nhnet] MODEL:NOISE [...]
+        [--points 1000000] [--threads 2] [--method nhnet] [--orient mst] MODEL:NOISE [...]
 
 For every MODEL:NOISE (an nhnet-datagen model name and a noise level in % of the bounding-box
 diagonal) it samples the model's clean surface (`sample_clean`, uniform), adds the noise
 (`add_noise`, seed 1) and runs `nhnet.estimate` twice on the same points, unoriented:
 `cell_means=False` (the points themselves) and `cell_means=True` (the default). Prints the noise
 ratio, the means' count, the estimate's seconds and the unoriented angle error against the true
-normals: RMS, mean, PGP5 / PGP10 and the share over 30 degrees.
+normals: RMS, mean, PGP5 / PGP10 and the share over 30 degrees. With `--orient mst` (or up) the
+normals are oriented too, and the share of them whose sign agrees with the true (outward)
+normal is printed.
 """
 
 from __future__ import annotations
@@ -35,6 +37,7 @@ def main() -> None:
     ap.add_argument("--points", type=int, default=1000000)
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--method", default=None)
+    ap.add_argument("--orient", default=None, choices=["mst", "up"])
     args = ap.parse_args()
     for spec in args.clouds:
         model, level = spec.rsplit(":", 1)
@@ -42,11 +45,15 @@ def main() -> None:
         points = add_noise(clean, float(level), 1)[0]
         for means in (False, True):
             start = time.perf_counter()
-            r = nhnet.estimate(points, method=args.method, threads=args.threads, orient=None,
-                               cell_means=means)
+            r = nhnet.estimate(points, method=args.method, threads=args.threads,
+                               orient=args.orient, cell_means=means)
             seconds = time.perf_counter() - start
+            signs = ""
+            if args.orient:
+                agree = np.sum(r.normals * truth, axis=1) > 0
+                signs = f"  signs right {100 * np.mean(agree[r.valid]):5.1f} %"
             print(f"{model:>20} {level:>4} %  noise ratio {r.noise_ratio:5.2f}  cell means "
-                  f"{r.cell_means:7d}  k {r.k_used:3d}  {seconds:6.1f} s  {errors(r.normals, truth)}",
+                  f"{r.cell_means:7d}  k {r.k_used:3d}  {seconds:6.1f} s  {errors(r.normals, truth)}{signs}",
                   flush=True)
 
 

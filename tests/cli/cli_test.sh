@@ -272,6 +272,7 @@ import json, sys
 d = json.load(open("stdout.txt"))
 for key in ("points", "failed", "method", "k", "scales", "noise_ratio", "candidates", "seconds", "output"):
     assert key in d, key
+assert d["cell_means"] == 0, d  # a small clean cloud is estimated itself
 assert d["points"] == int(sys.argv[1]), d["points"]
 assert d["output"] == "c.ply"
 assert d["method"] == "pca"
@@ -376,6 +377,7 @@ case_bad_parameters() {
     "--threads two" "--method foo" "--orient sideways" "--seed -1" "--seed x"
     "--refine some" "--candidate-mix maybe" "--learned-fit maybe" "--method pca --refine moved"
     "--method pca --learned-fit off" "--precision half" "--method mfps --precision bfloat16"
+    "--cell-means maybe" "--cell-means"
   )
   usage_errors estimate in.xyz out.ply "${bad[@]}"
   expect 2 estimate in.xyz out.unknown
@@ -536,6 +538,35 @@ case_orient_mst() {
   grep -q '"orient": "mst"' stdout.txt || fail "JSON lacks the orient mode"
   grep -q '"orient_k": 12' stdout.txt || fail "JSON lacks orient_k 12"
   grep -q '"unoriented": 0' stdout.txt || fail "JSON: unoriented normals on a sphere"
+}
+
+case_cell_means() {
+  # 200 000 points of a unit sphere with noise 0.012 along the radius (spacing ~0.008: noise
+  # ratio above 1): estimated through cell means, oriented through them (MST: outward), every
+  # point in its place with a normal; --cell-means off estimates the points themselves.
+  awk 'BEGIN { srand(5); pi = 3.14159265358979
+    for (i = 0; i < 200000; i++) {
+      z = 2 * rand() - 1; t = 2 * pi * rand(); r = sqrt(1 - z * z)
+      g = sqrt(-2 * log(1 - rand())) * cos(2 * pi * rand()) * 0.012
+      printf "%.9g %.9g %.9g\n", r * cos(t) * (1 + g), r * sin(t) * (1 + g), z * (1 + g) } }' >dense.xyz
+  expect 0 estimate dense.xyz out.xyzn --method pca --json --threads 2
+  /usr/bin/python3 - <<'EOF' || fail "--cell-means auto: $(cat stdout.txt)"
+import json
+d = json.load(open("stdout.txt"))
+assert d["noise_ratio"] >= 1 and 10000 < d["cell_means"] < 100000 and d["failed"] == 0, d
+assert d["orient"] == "mst", d
+EOF
+  # Same points in the same order; the normals outward (n . p > 0) but for a few near-tangent
+  # ones: 0.1 % of 200 000 allowed.
+  paste -d ' ' dense.xyz out.xyzn | awk '
+    { if ($1 != $4 || $2 != $5 || $3 != $6) moved++
+      if ($7 * $1 + $8 * $2 + $9 * $3 <= 0) inward++ }
+    END { if (moved || inward > 200) { printf "%d moved, %d inward\n", moved, inward; exit 1 } }' \
+    || fail "cell means: points reordered or normals not outward"
+  expect 0 estimate dense.xyz plain.xyzn --method pca --threads 2 --orient none
+  grep -q "through [0-9]* cell means" stderr.txt || fail "summary lacks 'through N cell means'"
+  expect 0 estimate dense.xyz off.xyzn --method pca --json --threads 2 --orient none --cell-means off
+  grep -q '"cell_means": 0' stdout.txt || fail "--cell-means off still used means: $(cat stdout.txt)"
 }
 
 case_orient_viewpoint() {

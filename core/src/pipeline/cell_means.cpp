@@ -124,17 +124,18 @@ OrientResult orient_through_means(MeansRun& run, EstimateResult& res, const Orie
 }
 
 bool through_cell_means(const Points& points, const EstimateOptions& options, EstimateResult& out,
-                        TileOverrides& measured, MeansRun* keep) {
+                        TileOverrides& measured, Prepared& prepared, MeansRun* keep) {
   const CellMeanOptions& cm = options.cell_means;
   if (!(cm.noise_ratio > 0) || options.k != 0 || !options.mfps.scales.empty() ||
       points.rows() < cm.min_points)
     return false;
   start_threads(options.run.threads);
-  std::vector<std::string> warnings;
-  Canonical canon = canonical_points(points, warnings);
+  prepared.canon = canonical_points(points, prepared.warnings);
+  const Canonical& canon = prepared.canon;
   if (int64_t(canon.finite_count) < cm.min_points) return false;
   const RunContext& run = options.run;
-  const Probe probe = probe_noise(canon.pts, Neighbors(canon.pts), narrow(run, 0, 0.04), nullptr);
+  prepared.tree = std::make_unique<Neighbors>(canon.pts);
+  const Probe probe = probe_noise(canon.pts, *prepared.tree, narrow(run, 0, 0.04), nullptr);
   measured.noise_ratio = probe.noise.ratio;
   measured.spacing = probe.noise.spacing * canon.unit;  // input units, as estimate_cloud takes
   if (probe.noise.ratio < cm.noise_ratio) return false;
@@ -144,6 +145,8 @@ bool through_cell_means(const Points& points, const EstimateOptions& options, Es
   Points means = means_of_cells(canon.pts, cm.edge * probe.noise.ratio * probe.noise.spacing);
   top.throw_if_cancelled();
   if (means.rows() < 3) return false;
+  prepared.tree.reset();  // the points' tree is not needed below
+  std::vector<std::string> warnings = std::move(prepared.warnings);
   EstimateOptions o = options;
   o.cell_means.noise_ratio = 0;
   o.neighbours = 0;  // the means' table is not the points'

@@ -26,10 +26,11 @@ struct MeansRun {
 /// When options.cell_means applies to `points` (automatic sizes, enough finite points, noise
 /// ratio at least its threshold): estimates them through cell means into `out` and returns true.
 /// Otherwise returns false and, when it probed the noise, leaves the cloud's noise ratio and
-/// spacing (input units) in `measured`, for estimate_points not to probe again.
-/// With `keep`, the means, their normals and each row's mean are moved there.
+/// spacing (input units) in `measured` and its canonical points and tree in `prepared`, for
+/// the estimate not to build them again. With `keep`, the means, their normals and each row's
+/// mean are moved there.
 bool through_cell_means(const Points& points, const EstimateOptions& options, EstimateResult& out,
-                        TileOverrides& measured, MeansRun* keep = nullptr);
+                        TileOverrides& measured, Prepared& prepared, MeansRun* keep = nullptr);
 
 /// estimate_normals, keeping the means in `keep` (when given) when it ran through them.
 EstimateResult estimate_normals_keeping_means(const Points& points, const EstimateOptions& options,

@@ -571,12 +571,17 @@ EstimateResult estimate_geometry(const Points& points, const EstimateOptions& op
                                  SharedTable* table) {
   start_threads(options.run.threads);  // before the big allocations
   EstimateResult res = empty_result(points.rows());
-  Canonical canon = canonical_points(points, res.warnings);  // rows move to `table` at the end
+  Prepared own;
+  Prepared& prep = overrides.prepared ? *overrides.prepared : own;
+  if (!overrides.prepared) prep.canon = canonical_points(points, prep.warnings);
+  res.warnings = std::move(prep.warnings);
+  Canonical canon = std::move(prep.canon);  // rows move to `table` at the end
   const Points& pts = canon.pts;
   const RunContext& run = options.run;
   Progress top(run.progress);
   if (run.progress) top.stage("kd-tree", 0, 0.02);
-  const Neighbors tree(pts);
+  if (!prep.tree) prep.tree = std::make_unique<Neighbors>(pts);
+  const Neighbors& tree = *prep.tree;
   top.throw_if_cancelled();
 
   IndexMatrix knn;
@@ -657,8 +662,13 @@ EstimateResult estimate_normals_keeping_means(const Points& points, const Estima
   check_options(options);
   EstimateResult res;
   TileOverrides measured;
-  if (through_cell_means(points, options, res, measured, keep)) return res;
-  return estimate_points(points, options, measured);
+  Prepared prepared;
+  if (through_cell_means(points, options, res, measured, prepared, keep)) return res;
+  if (!(measured.spacing > 0)) return estimate_points(points, options, measured);
+  EstimateOptions rest = options;  // the decision's probe reported the first 4 %
+  rest.run = narrow(options.run, 0.04, 1);
+  measured.prepared = &prepared;  // its canonical points and tree serve the estimate in one piece
+  return estimate_points(points, rest, measured);
 }
 
 }  // namespace detail

@@ -12,6 +12,7 @@
 #include "nhnet/pipeline/estimate.hpp"
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -27,6 +28,9 @@ struct TileOverrides {
   /// MFPS's candidate threshold on the surface variation (FeatureDetection::absolute_threshold);
   /// < 0 = chosen from this cloud's histogram.
   double variation_threshold = -1;
+  /// The cloud's canonical points and kd-tree when a step before the estimate built them (the
+  /// cell-mean decision's probe): estimate_geometry takes them over instead of building its own.
+  struct Prepared* prepared = nullptr;
 };
 
 /// A result for n points with NaN normals and curvatures and nothing valid yet.
@@ -130,6 +134,14 @@ double normalise(Points& pts);
 /// Canonical points of `points` (N x 3); appends the non-finite / duplicate warnings. Throws
 /// UnprocessableInput when fewer than 3 distinct finite points remain.
 Canonical canonical_points(const Points& points, std::vector<std::string>& warnings);
+
+/// What estimate_geometry would build first: the canonical points, canonical_points' warnings
+/// and the kd-tree over the points (TileOverrides::prepared).
+struct Prepared {
+  Canonical canon;
+  std::vector<std::string> warnings;
+  std::unique_ptr<Neighbors> tree;
+};
 
 struct Probe {
   /// Noise ratio and spacing (units of the probed points).

@@ -67,7 +67,8 @@ struct TileOptions {
 /// of the points in cubes a few noise deviations wide (each mean averages the noise of its
 /// points, as a large neighbourhood would) and every point takes its nearest mean's normal, so
 /// the time per point stays flat across noise levels. 1M-point clouds at 0.6 % noise: RMS level
-/// or lower, 4-5x less estimate time (docs/design/decisions.md#cell-means-for-dense-noisy-clouds).
+/// or lower, 4-5x less estimate time
+/// (docs/design/decisions.md#cell-means-for-dense-noisy-clouds-issue-23).
 struct CellMeanOptions {
   /// Noise ratio (EstimateResult::noise_ratio) from which a cloud goes through cell means; 0 =
   /// never. 1.0 is where the noise-driven PCA k reaches its largest size (scales.cpp).
