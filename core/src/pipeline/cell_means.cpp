@@ -130,6 +130,7 @@ bool through_cell_means(const Points& points, const EstimateOptions& options, Es
       points.rows() < cm.min_points)
     return false;
   start_threads(options.run.threads);
+  prepared.source = points.data();
   prepared.canon = canonical_points(points, prepared.warnings);
   const Canonical& canon = prepared.canon;
   if (int64_t(canon.finite_count) < cm.min_points) return false;

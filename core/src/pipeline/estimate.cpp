@@ -572,10 +572,12 @@ EstimateResult estimate_geometry(const Points& points, const EstimateOptions& op
   start_threads(options.run.threads);  // before the big allocations
   EstimateResult res = empty_result(points.rows());
   Prepared own;
-  Prepared& prep = overrides.prepared ? *overrides.prepared : own;
-  if (!overrides.prepared) prep.canon = canonical_points(points, prep.warnings);
+  const bool given = overrides.prepared && overrides.prepared->source == points.data();
+  Prepared& prep = given ? *overrides.prepared : own;
+  if (!given) prep.canon = canonical_points(points, prep.warnings);
   res.warnings = std::move(prep.warnings);
-  Canonical canon = std::move(prep.canon);  // rows move to `table` at the end
+  Canonical& canon = prep.canon;  // in place: the tree keeps its points' address; rows move to
+                                  // `table` at the end
   const Points& pts = canon.pts;
   const RunContext& run = options.run;
   Progress top(run.progress);

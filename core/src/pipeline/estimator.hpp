@@ -136,8 +136,10 @@ double normalise(Points& pts);
 Canonical canonical_points(const Points& points, std::vector<std::string>& warnings);
 
 /// What estimate_geometry would build first: the canonical points, canonical_points' warnings
-/// and the kd-tree over the points (TileOverrides::prepared).
+/// and the kd-tree over the points (TileOverrides::prepared), for the rows at `source` only
+/// (NH-Net's stage runs on its rows in another order, row_order.hpp, and builds its own).
 struct Prepared {
+  const double* source = nullptr;
   Canonical canon;
   std::vector<std::string> warnings;
   std::unique_ptr<Neighbors> tree;
