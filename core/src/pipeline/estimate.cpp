@@ -576,8 +576,7 @@ EstimateResult estimate_geometry(const Points& points, const EstimateOptions& op
   Prepared& prep = given ? *overrides.prepared : own;
   if (!given) prep.canon = canonical_points(points, prep.warnings);
   res.warnings = std::move(prep.warnings);
-  Canonical& canon = prep.canon;  // in place: the tree keeps its points' address; rows move to
-                                  // `table` at the end
+  Canonical& canon = prep.canon;  // rows move to `table` at the end
   const Points& pts = canon.pts;
   const RunContext& run = options.run;
   Progress top(run.progress);
@@ -654,10 +653,6 @@ EstimateResult estimate_points(const Points& points, const EstimateOptions& opti
   if (wants_tiles(points, options)) return estimate_tiled(points, options);
   return estimate_cloud(points, options, overrides);
 }
-
-}  // namespace detail
-
-namespace detail {
 
 EstimateResult estimate_normals_keeping_means(const Points& points, const EstimateOptions& options,
                                               MeansRun* keep) {
