@@ -661,6 +661,9 @@ EstimateResult estimate_normals_keeping_means(const Points& points, const Estima
   TileOverrides measured;
   Prepared prepared;
   if (through_cell_means(points, options, res, measured, prepared, keep)) return res;
+  // A tiled run builds its own canonical points per tile: the decision's must not stay in memory
+  // beside them (estimate_tiled ignores `measured`).
+  if (wants_tiles(points, options)) prepared = Prepared{};
   if (!(measured.spacing > 0)) return estimate_points(points, options, measured);
   EstimateOptions rest = options;  // the decision's probe reported the first 4 %
   rest.run = narrow(options.run, 0.04, 1);
