@@ -4,13 +4,15 @@
         [--model fandisk] [--threads 2]
         [--methods pcl-pca,pca-auto,mfps-auto,mfps-stream,nhnet,mfps-whole,nhnet-whole]
         [--out docs/benchmark/scaling] [--data DIR] [--timeout S] [--max-rss-gb G]
+        [--noise 0,0.1,0.6]
 
 One dense cloud per size, sampled uniformly from one benchmark mesh (nhnet-datagen's sampler).
 The Gaussian noise is 0.1 % of the bounding-box diagonal at 100k points and shrinks as
 1/sqrt(N), i.e. it stays the same fraction of the point spacing: the automatic neighbourhood
 sizes then stay the same and time per point measures the implementation, not a noise level that
 grows with density (a fixed 0.1 % at 1M points makes the auto scales 137/274/300 instead of
-43/86/129). Every method runs in its own process (nhnet-bench-worker), so the peak RSS is its
+43/86/129). `--noise` instead gives fixed levels (% of the diagonal), each a cloud at every size:
+time per point across noise levels, the other half of issue 23's flatness target. Every method runs in its own process (nhnet-bench-worker), so the peak RSS is its
 own; PCL NormalEstimationOMP (k=50) runs before every other method and once at the end, and each
 method's ratio is to the mean of the two PCL runs around it, taken seconds apart on the same
 cloud (the machine may be shared). Per-stage seconds come from the core's progress stages.
@@ -62,8 +64,9 @@ STREAM_METHODS = {"mfps-stream": "mfps"}  # scaling method -> nhnet-cli --method
 WHOLE_METHODS = {"mfps-whole": ["--method", "mfps"], "nhnet-whole": []}
 
 
-def noise_percent(n: int) -> float:
-    return BASE_NOISE_PERCENT * math.sqrt(BASE_POINTS / n)
+def noise_percent(n: int, level: float | None = None) -> float:
+    """The cloud's noise: `level` when given (--noise), else the constant-fraction rule."""
+    return level if level is not None else BASE_NOISE_PERCENT * math.sqrt(BASE_POINTS / n)
 
 
 # ensure_cloud's child: samples the mesh, adds the noise, writes MODEL_N.gt.xyzn.
@@ -79,20 +82,23 @@ datagen.write_cloud(gt.parent / gt.name[: -len(".gt.xyzn")], noisy, normals, cle
 """
 
 
-def ensure_cloud(datagen, data: Path, model: str, n: int, log) -> Path:
-    """The cloud of n points (data/MODEL_N.gt.xyzn), sampled when missing in a process of its
-    own: a child reports a peak RSS (ru_maxrss) of at least its parent's peak, so a 10M-point
-    cloud sampled in this process (5 GB) became every method's peak at every later size."""
-    gt = data / f"{model}_{n}.gt.xyzn"
+def ensure_cloud(datagen, data: Path, model: str, n: int, log, level: float | None = None) -> Path:
+    """The cloud of n points (data/MODEL_N.gt.xyzn; with a fixed noise level
+    MODEL_N_noiseL.gt.xyzn), sampled when missing in a process of its own: a child reports a
+    peak RSS (ru_maxrss) of at least its parent's peak, so a 10M-point cloud sampled in this
+    process (5 GB) became every method's peak at every later size."""
+    suffix = "" if level is None else f"_noise{level:g}"
+    gt = data / f"{model}_{n}{suffix}.gt.xyzn"
     if gt.exists():
         return gt
-    log(f"data: sampling {n} points from {model} (noise {noise_percent(n):.4f} % of the diagonal)")
+    log(f"data: sampling {n} points from {model} (noise {noise_percent(n, level):.4f} % of the "
+        "diagonal)")
     gt.parent.mkdir(parents=True, exist_ok=True)
     package_dir = str(Path(datagen.__file__).resolve().parents[1])  # holds nhnet_training
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join(p for p in (package_dir, env.get("PYTHONPATH")) if p)
     done = subprocess.run([sys.executable, "-c", _SAMPLE_CODE, str(gt), model, str(n),
-                           repr(noise_percent(n))], env=env)
+                           repr(noise_percent(n, level))], env=env)
     if done.returncode != 0 or not gt.exists():
         raise RuntimeError(f"sampling {gt} failed (exit code {done.returncode})")
     return gt
@@ -192,14 +198,38 @@ def fmt(v, spec=".2f") -> str:
     return "—" if v is None else format(v, spec)
 
 
+def per_point(records: list[dict], n: int, m: str, level) -> float | None:
+    """Mean µs per point of method m's runs on the cloud (n, level); None when none ran."""
+    ok = [r["us_per_point"] for r in records
+          if r["n"] == n and r["method"] == m and r.get("noise") == level and "error" not in r]
+    return sum(ok) / len(ok) if ok else None
+
+
+def noise_table(records: list[dict], methods: list[str], sizes: list[int], levels: list) -> list[str]:
+    """Time per point across the noise levels at each size, relative to the first level."""
+    md = ["", "## Time per point relative to the first noise level (flat = 1.00; bar: within "
+          "±25 %)", "", "| method | points | " + " | ".join(f"{v:g} %" for v in levels) + " |",
+          "|---|---|" + "---|" * len(levels)]
+    for m in methods:
+        for n in sizes:
+            row = [per_point(records, n, m, v) for v in levels]
+            if row[0] is not None and any(x is not None for x in row[1:]):
+                md.append(f"| {LABELS.get(m, m)} | {n} | "
+                          + " | ".join(fmt(x / row[0]) if x is not None else "—" for x in row) + " |")
+    return md
+
+
 def report(records: list[dict], meta: dict, methods: list[str]) -> list[str]:
     sizes = sorted({r["n"] for r in records})
+    levels = meta.get("noise") or [None]
+    cloud = (f"noise {', '.join(f'{v:g}' for v in levels)} % of the diagonal at every size"
+             if meta.get("noise") else
+             f"noise {BASE_NOISE_PERCENT} % of the diagonal at {BASE_POINTS} points, scaled by "
+             f"sqrt({BASE_POINTS}/N) (constant fraction of the spacing)")
     md = ["# nhnet scaling benchmark", "",
           f"- date: {meta['date']}", f"- machine: {meta['machine']}",
           f"- command: `{meta['command']}`", f"- commit: {meta['commit']}",
-          f"- cloud: {meta['model']} sampled uniformly, noise {BASE_NOISE_PERCENT} % of the "
-          f"diagonal at {BASE_POINTS} points, scaled by sqrt({BASE_POINTS}/N) (constant "
-          "fraction of the spacing)",
+          f"- cloud: {meta['model']} sampled uniformly, {cloud}",
           f"- threads per method: {meta['threads']}; ratio = time / mean of the PCL k={PCL_K} "
           "runs just before and after, same cloud", ""]
     if meta.get("skipped"):
@@ -207,16 +237,18 @@ def report(records: list[dict], meta: dict, methods: list[str]) -> list[str]:
     md += ["| points | method | time s | µs/point | × PCL | points/s/core | peak MB | "
            "peak B/point | Δ B/point | k / scales | mean ° |",
            "|---|---|---|---|---|---|---|---|---|---|---|"]
-    for n in sizes:
+    for n, level in [(n, v) for n in sizes for v in levels]:
+        label = str(n) if level is None else f"{n}, {level:g} %"
         for m in methods:
-            for r in [r for r in records if r["n"] == n and r["method"] == m]:
+            for r in [r for r in records if r["n"] == n and r["method"] == m
+                      and r.get("noise") == level]:
                 if "error" in r:
-                    md.append(f"| {n} | {LABELS.get(m, m)} | error: {r['error'][:80]} |"
+                    md.append(f"| {label} | {LABELS.get(m, m)} | error: {r['error'][:80]} |"
                               + " |" * 8)
                     continue
                 ks = str(r.get("k_used", "")) + (
                     " / " + ",".join(map(str, r["scales_used"])) if r.get("scales_used") else "")
-                md.append(f"| {n} | {LABELS.get(m, m)} | {fmt(r['time_s'])} | "
+                md.append(f"| {label} | {LABELS.get(m, m)} | {fmt(r['time_s'])} | "
                           f"{fmt(r['us_per_point'], '.1f')} | {fmt(r.get('ratio_to_pcl'))} | "
                           f"{fmt(r['points_per_s_per_core'], '.0f')} | {fmt(r['peak_mb'], '.0f')} | "
                           f"{fmt(r['peak_bytes_per_point'], '.0f')} | "
@@ -225,16 +257,16 @@ def report(records: list[dict], meta: dict, methods: list[str]) -> list[str]:
     md += ["", "## Time per point relative to the smallest size (flat = 1.00; bar: within ±25 %)",
            "", "| method | " + " | ".join(str(n) for n in sizes) + " |",
            "|---|" + "---|" * len(sizes)]
-    for m in methods:
-        row = {}
-        for n in sizes:
-            ok = [r for r in records if r["n"] == n and r["method"] == m and "error" not in r]
-            if ok:
-                row[n] = sum(r["us_per_point"] for r in ok) / len(ok)
+    for m, level in [(m, v) for m in methods for v in levels]:
+        row = {n: per_point(records, n, m, level) for n in sizes}
+        row = {n: x for n, x in row.items() if x is not None}
         if row:
             base = row[min(row)]
-            md.append(f"| {LABELS.get(m, m)} | "
+            name = LABELS.get(m, m) + ("" if level is None else f", {level:g} %")
+            md.append(f"| {name} | "
                       + " | ".join(fmt(row[n] / base) if n in row else "—" for n in sizes) + " |")
+    if len(levels) > 1:
+        md += noise_table(records, methods, sizes, levels)
     md += ["", "## Seconds per stage (core progress stages)", ""]
     for r in records:
         if r.get("stages") and r["method"] != "pcl-pca":
@@ -244,7 +276,8 @@ def report(records: list[dict], meta: dict, methods: list[str]) -> list[str]:
             if r.get("descriptor_points_per_s"):
                 extra = (f"; descriptors {r['descriptor_points_per_s']:.0f} points/s, network "
                          f"{r.get('network_points_per_s', float('nan')):.0f} points/s")
-            md.append(f"- {r['n']} {r['method']}: {st}{extra}")
+            level = "" if r.get("noise") is None else f" {r['noise']:g} %"
+            md.append(f"- {r['n']}{level} {r['method']}: {st}{extra}")
     return md
 
 
@@ -256,14 +289,15 @@ def write_plot(records: list[dict], methods: list[str], path: Path, title: str) 
     except ImportError as e:
         return f"no plot: matplotlib not importable ({e})"
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.8))
-    for m in methods:
-        ok = sorted((r for r in records if r["method"] == m and "error" not in r),
-                    key=lambda r: r["n"])
+    levels = sorted({r.get("noise") for r in records}, key=lambda v: -1 if v is None else v)
+    for m, level in [(m, v) for m in methods for v in levels]:
+        ok = sorted((r for r in records if r["method"] == m and r.get("noise") == level
+                     and "error" not in r), key=lambda r: r["n"])
         if not ok:
             continue
-        xs = [r["n"] for r in ok]
-        axes[0].plot(xs, [r["us_per_point"] for r in ok], "o-", label=LABELS.get(m, m))
-        axes[1].plot(xs, [r["peak_bytes_per_point"] for r in ok], "o-", label=LABELS.get(m, m))
+        xs, name = [r["n"] for r in ok], LABELS.get(m, m) + ("" if level is None else f", {level:g} %")
+        axes[0].plot(xs, [r["us_per_point"] for r in ok], "o-", label=name)
+        axes[1].plot(xs, [r["peak_bytes_per_point"] for r in ok], "o-", label=name)
     axes[0].set_ylabel("µs per point (wall)")
     axes[1].set_ylabel("peak RSS bytes per point")
     axes[1].axhline(400, color="k", lw=0.8, ls="--", label="budget 400 B/point")
@@ -278,6 +312,35 @@ def write_plot(records: list[dict], methods: list[str], path: Path, title: str) 
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return None
+
+
+def run_cloud(bench, a, cloud: tuple, todo: list[str], with_pcl: bool, paths: tuple,
+              log) -> list[dict]:
+    """Every method of `todo` on the cloud (n points, noise level or None), each between two PCL
+    runs."""
+    (n, level), (worker, cli, data, out) = cloud, paths
+    gt = ensure_cloud(bench.datagen, data, a.model, n, log, level)
+    order = []
+    for m in todo:
+        order += (["pcl-pca"] if with_pcl else []) + [m]
+    order += ["pcl-pca"] if with_pcl else []
+    runs = []
+    for m in order:
+        if m in STREAM_METHODS:
+            rec = run_stream(bench, cli, m, gt, a.threads, a.timeout, out)
+        elif m in WHOLE_METHODS:
+            rec = run_whole(bench, cli, m, gt, a.threads, a.timeout, out)
+        else:
+            rec = run_method(bench, worker, m, gt, a.threads, a.timeout)
+        rec["n"], rec["noise"] = n, level
+        runs.append(rec)
+        log(f"{n} {'' if level is None else f'{level:g} % '}{m}: " + (
+            rec["error"] if "error" in rec else f"{rec['time_s']:.2f} s, peak {rec['peak_mb']:.0f} MB"))
+    for i, rec in enumerate(runs):
+        before = runs[i - 1] if i > 0 and runs[i - 1]["method"] == "pcl-pca" else None
+        after = runs[i + 1] if i + 1 < len(runs) and runs[i + 1]["method"] == "pcl-pca" else None
+        derive(rec, n, a.threads, before, after)
+    return runs
 
 
 def main(argv: list[str], bench) -> int:
@@ -302,6 +365,10 @@ def main(argv: list[str], bench) -> int:
     ap.add_argument("--max-rss-gb", type=float, default=None,
                     help="skip a size whose estimated MFPS peak (from the previous size's bytes "
                          "per point) exceeds this many GiB (default: 70 %% of MemTotal)")
+    ap.add_argument("--noise", default=None,
+                    help="comma-separated fixed noise levels in %% of the diagonal, each a cloud "
+                         "at every size (default: 0.1 %% at 100k points, scaled to keep the same "
+                         "fraction of the spacing)")
     a = ap.parse_args(argv)
     log = lambda msg: print(msg, flush=True)  # noqa: E731
     sizes = [int(x) for x in a.sizes.split(",")]
@@ -324,7 +391,8 @@ def main(argv: list[str], bench) -> int:
     meta = {"date": dt.datetime.now(dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
             "machine": bench.machine_info(), "commit": bench.git_commit(),
             "command": "/usr/bin/python3 bench/nhnet_bench.py " + " ".join(argv),
-            "model": a.model, "threads": a.threads, "skipped": []}
+            "model": a.model, "threads": a.threads, "skipped": [],
+            "noise": [float(v) for v in a.noise.split(",")] if a.noise else None}
     records: list[dict] = []
     t0 = time.perf_counter()
     last_bpp: dict[str, float] = {}  # peak bytes/point of each method at the previous size
@@ -350,28 +418,10 @@ def main(argv: list[str], bench) -> int:
                 todo.append(m)
         if not todo:
             continue
-        gt = ensure_cloud(bench.datagen, data, a.model, n, log)
         with_pcl = fits("pcl-pca")  # the reference of every ratio, run whether listed or not
-        order = []
-        for m in todo:
-            order += (["pcl-pca"] if with_pcl else []) + [m]
-        order += ["pcl-pca"] if with_pcl else []
         runs = []
-        for m in order:
-            if m in STREAM_METHODS:
-                rec = run_stream(bench, cli, m, gt, a.threads, a.timeout, out)
-            elif m in WHOLE_METHODS:
-                rec = run_whole(bench, cli, m, gt, a.threads, a.timeout, out)
-            else:
-                rec = run_method(bench, worker, m, gt, a.threads, a.timeout)
-            rec["n"] = n
-            runs.append(rec)
-            log(f"{n} {m}: " + (rec["error"] if "error" in rec else
-                                f"{rec['time_s']:.2f} s, peak {rec['peak_mb']:.0f} MB"))
-        for i, rec in enumerate(runs):
-            before = runs[i - 1] if i > 0 and runs[i - 1]["method"] == "pcl-pca" else None
-            after = runs[i + 1] if i + 1 < len(runs) and runs[i + 1]["method"] == "pcl-pca" else None
-            derive(rec, n, a.threads, before, after)
+        for level in meta["noise"] or [None]:
+            runs += run_cloud(bench, a, (n, level), todo, with_pcl, (worker, cli, data, out), log)
         here: dict[str, float] = {}  # a method skipped at this size keeps its older figure
         for rec in runs:
             if "error" not in rec:

@@ -9,6 +9,9 @@
 
 #include <CLI/CLI.hpp>
 
+#include <cmath>
+#include <string>
+
 namespace nhcli {
 
 namespace {
@@ -78,10 +81,10 @@ void add_method_options(CLI::App* sub, EstimateArgs& a) {
                   "Dense clouds whose noise is as large as their spacing (noise ratio >= " +
                       json_number(nhnet::EstimateOptions{}.cell_means.noise_ratio) +
                       "): estimate on the means of small cubes and give each point its nearest "
-                      "mean's normal, several times faster there (auto), or always on the points "
-                      "themselves (off) " +
+                      "mean's normal, several times faster there (auto), from another noise ratio "
+                      "(a number > 0), or always on the points themselves (off) " +
                       default_note(a.cell_means))
-      ->type_name("auto|off");
+      ->type_name("auto|off|RATIO");
   add_threads_option(sub, a.threads);
   sub->add_option("--tile-points", a.tile_points,
                   "Clouds with more points are processed in spatial tiles of at most N points "
@@ -147,6 +150,23 @@ void check_paths(const EstimateArgs& a) {
     throw nhnet::InvalidOptions("--ext and --fail-fast only apply with -o DIR");
 }
 
+/// --cell-means: auto (the core's ratio), off (0) or the noise ratio from which (a number > 0).
+double parse_cell_means(const std::string& text) {
+  if (text == "auto") return nhnet::EstimateOptions{}.cell_means.noise_ratio;
+  if (text == "off") return 0;
+  size_t used = 0;
+  double ratio = 0;
+  try {
+    ratio = std::stod(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used != text.size() || !std::isfinite(ratio) || ratio <= 0)
+    throw nhnet::InvalidOptions("--cell-means must be auto, off or a noise ratio > 0, got '" +
+                                text + "'");
+  return ratio;
+}
+
 /// The estimator's and orientation's options.
 Setup prepare(const EstimateArgs& a) {
   Setup st;
@@ -185,9 +205,7 @@ Setup prepare(const EstimateArgs& a) {
     throw nhnet::InvalidOptions("--learned-fit must be on or off, got '" + a.learned_fit + "'");
   opt.model.learned_fit = a.learned_fit == "on";
   opt.model.refine = nhnet::refine_from_string(a.refine);
-  if (a.cell_means != "auto" && a.cell_means != "off")
-    throw nhnet::InvalidOptions("--cell-means must be auto or off, got '" + a.cell_means + "'");
-  if (a.cell_means == "off") opt.cell_means.noise_ratio = 0;
+  opt.cell_means.noise_ratio = parse_cell_means(a.cell_means);
   if (opt.method != nhnet::Method::NhNet && nhnet_asked)
     throw nhnet::InvalidOptions(
         "--model, --device, --precision, --candidate-mix, --learned-fit and --refine only "

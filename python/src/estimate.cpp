@@ -9,7 +9,9 @@
 
 #include <pybind11/stl.h>
 
+#include <cmath>
 #include <optional>
+#include <string>
 #include <tuple>
 
 namespace nhnet::python {
@@ -26,14 +28,28 @@ struct PyEstimateResult {
   std::string orient_mode, orient_source;  ///< the orientation applied and why
 };
 
+/// cell_means=: True (the core's ratio), False (0) or the noise ratio from which (a number > 0).
+double cell_means_ratio(const py::object& value) {
+  if (py::isinstance<py::bool_>(value))
+    return value.cast<bool>() ? EstimateOptions{}.cell_means.noise_ratio : 0.0;
+  const double ratio = py::isinstance<py::float_>(value) || py::isinstance<py::int_>(value)
+                           ? value.cast<double>()
+                           : std::nan("");
+  if (!std::isfinite(ratio) || ratio <= 0)
+    throw InvalidOptions("cell_means must be True, False or a noise ratio > 0, got " +
+                         std::string(py::str(value)));
+  return ratio;
+}
+
 PyEstimateResult estimate(const py::handle& points, const std::optional<std::string>& method, int k,
                           std::optional<std::vector<int>> scales, int threads, uint64_t seed,
                           const py::object& orient, const py::object& viewpoint,
                           const py::object& progress, const std::string& refine,
                           const std::optional<std::string>& model, const std::string& device,
-                          const std::string& precision, bool learned_fit, bool cell_means) {
+                          const std::string& precision, bool learned_fit,
+                          const py::object& cell_means) {
   EstimateOptions opt;
-  if (!cell_means) opt.cell_means.noise_ratio = 0;
+  opt.cell_means.noise_ratio = cell_means_ratio(cell_means);
   opt.method = method ? method_from_string(*method) : default_method();
   opt.model.refine = refine_from_string(refine);
   if (model) opt.model.path = *model;
@@ -123,11 +139,11 @@ precision : {'auto', 'float32', 'bfloat16'} (nhnet.PRECISIONS, the default first
 learned_fit : bool
     NH-Net only (nhnet-cli --learned-fit): refit each normal of the candidate mix by the learned
     weighted jet fit (default True); False keeps the mix's normals.
-cell_means : bool
+cell_means : bool or float
     nhnet-cli --cell-means: True (default) estimates a dense cloud whose noise is as large as its
     spacing (noise ratio >= 1, at least 200 000 points, automatic sizes) on the means of small
     cubes, each point taking its nearest mean's normal: several times faster there, as accurate;
-    False always estimates the points themselves. `cell_means` on the result says which ran.
+    a number > 0 is the noise ratio from which; False always estimates the points themselves. `cell_means` on the result says which ran.
 
 The GIL is released while the core runs; Ctrl-C interrupts it (KeyboardInterrupt).
 
@@ -212,7 +228,7 @@ void register_estimate(py::module_& m) {
       py::arg("refine") = to_string(defaults.model.refine), py::arg("model") = py::none(),
       py::arg("device") = defaults.model.device, py::arg("precision") = defaults.model.precision,
       py::arg("learned_fit") = defaults.model.learned_fit,
-      py::arg("cell_means") = defaults.cell_means.noise_ratio > 0);
+      py::arg("cell_means") = py::bool_(defaults.cell_means.noise_ratio > 0));
   std::apply([&](const auto&... a) { m.def("estimate", &estimate, estimate_doc.c_str(), a...); },
              args);
 
@@ -228,7 +244,7 @@ void register_estimate(py::module_& m) {
          const py::object& orient, const py::object& viewpoint, const py::object& progress,
          const std::string& refine, const std::optional<std::string>& model,
          const std::string& device, const std::string& precision, bool learned_fit,
-         bool cell_means) {
+         const py::object& cell_means) {
         PyEstimateResult r =
             estimate(points, method, k, std::move(scales), threads, seed, orient, viewpoint,
                      progress, refine, model, device, precision, learned_fit, cell_means);

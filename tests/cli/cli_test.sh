@@ -377,7 +377,8 @@ case_bad_parameters() {
     "--threads two" "--method foo" "--orient sideways" "--seed -1" "--seed x"
     "--refine some" "--candidate-mix maybe" "--learned-fit maybe" "--method pca --refine moved"
     "--method pca --learned-fit off" "--precision half" "--method mfps --precision bfloat16"
-    "--cell-means maybe" "--cell-means"
+    "--cell-means maybe" "--cell-means" "--cell-means 0" "--cell-means -1" "--cell-means 1e"
+    "--cell-means nan" "--cell-means inf"
   )
   usage_errors estimate in.xyz out.ply "${bad[@]}"
   expect 2 estimate in.xyz out.unknown
@@ -567,6 +568,12 @@ EOF
   grep -q "through [0-9]* cell means" stderr.txt || fail "summary lacks 'through N cell means'"
   expect 0 estimate dense.xyz off.xyzn --method pca --json --threads 2 --orient none --cell-means off
   grep -q '"cell_means": 0' stdout.txt || fail "--cell-means off still used means: $(cat stdout.txt)"
+  # A ratio: from that noise ratio on (the sphere reads ~1.2: 50 leaves it to its points).
+  expect 0 estimate dense.xyz high.xyzn --method pca --json --threads 2 --orient none --cell-means 50
+  grep -q '"cell_means": 0' stdout.txt || fail "--cell-means 50 averaged: $(cat stdout.txt)"
+  cmp -s off.xyzn high.xyzn || fail "--cell-means 50 differs from --cell-means off"
+  expect 0 estimate dense.xyz low.xyzn --method pca --json --threads 2 --orient none --cell-means 0.5
+  grep -q '"cell_means": [1-9]' stdout.txt || fail "--cell-means 0.5 did not average: $(cat stdout.txt)"
 }
 
 case_orient_viewpoint() {

@@ -101,6 +101,12 @@ def test_dense_noisy_cloud_through_cell_means():
     def rms(n):
         return float(np.sqrt(np.mean(angles_deg(n, truth) ** 2)))
     assert rms(on.normals) < rms(off.normals) + 0.5
+    # A number is the noise ratio from which: 50 leaves the cloud to its points, 0.5 averages.
+    assert nhnet.estimate(pts, method="pca", threads=2, orient=None, cell_means=50.0).cell_means == 0
+    assert nhnet.estimate(pts, method="pca", threads=2, orient=None, cell_means=0.5).cell_means > 0
+    for bad in (0, -1.0, float("nan"), "auto"):
+        with pytest.raises(nhnet.InvalidOptions, match="cell_means"):
+            nhnet.estimate(pts[:100], method="pca", cell_means=bad)
 
 
 def test_full_result_fields_and_non_finite_points():

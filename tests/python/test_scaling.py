@@ -109,3 +109,22 @@ def test_stages_are_timed(scaling):
     (nh,) = [r for r in results["records"] if r["method"] == "nhnet"]
     assert nh["stages"].get("height maps", 0) > 0 and nh["stages"].get("nhnet", 0) > 0, nh
     assert nh["descriptor_points_per_s"] > 0 and nh["network_points_per_s"] > 0, nh
+
+
+def test_fixed_noise_levels_are_clouds_of_their_own(tmp_path):
+    # --noise: one cloud per size and level (its own file and scores: the noisy cloud's PCA error
+    # is larger), and a table of time per point across the levels, relative to the first.
+    out = tmp_path / "out"
+    rc = nhnet_bench.main(["--scaling", "--sizes", "2000", "--noise", "0,0.6", "--methods",
+                           "pcl-pca,pca-auto", "--threads", "2", "--data", str(tmp_path / "data"),
+                           "--out", str(out), "--build", str(BUILD)])
+    assert rc == 0
+    recs = json.loads((out / "results.json").read_text())["records"]
+    assert sorted({r["noise"] for r in recs}) == [0.0, 0.6]
+    (clean,) = [r for r in recs if r["method"] == "pca-auto" and r["noise"] == 0]
+    (noisy,) = [r for r in recs if r["method"] == "pca-auto" and r["noise"] == 0.6]
+    assert noisy["mean_deg"] > clean["mean_deg"] + 5 and noisy["k_used"] > clean["k_used"], recs
+    assert sorted(p.name for p in (tmp_path / "data").glob("*.gt.xyzn")) == [
+        "fandisk_2000_noise0.6.gt.xyzn", "fandisk_2000_noise0.gt.xyzn"]
+    table = (out / "table.md").read_text()
+    assert "| method | points | 0 % | 0.6 % |" in table and "| 2000, 0.6 % | nhnet pca" in table
