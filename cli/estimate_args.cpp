@@ -78,10 +78,10 @@ void add_method_options(CLI::App* sub, EstimateArgs& a) {
                       default_note(scales_text(core.mfps.scales)))
       ->type_name("LIST");
   sub->add_option("--cell-means", a.cell_means,
-                  "Dense clouds whose noise is as large as their spacing (noise ratio >= " +
+                  "Dense clouds whose noise exceeds their spacing (noise ratio >= " +
                       json_number(nhnet::EstimateOptions{}.cell_means.noise_ratio) +
-                      "): estimate on the means of small cubes and give each point its nearest "
-                      "mean's normal, several times faster there (auto), from another noise ratio "
+                      "): estimate on local means of the points and give each point its nearest "
+                      "means' normal, several times faster there (auto), from another noise ratio "
                       "(a number > 0), or always on the points themselves (off) " +
                       default_note(a.cell_means))
       ->type_name("auto|off|RATIO");

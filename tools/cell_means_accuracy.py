@@ -1,13 +1,14 @@
 """Accuracy and estimate time of dense noisy clouds with and without cell means (issue 23).
 
     PYTHONPATH=build/python:training /usr/bin/python3 tools/cell_means_accuracy.py \
-        [--points 1000000] [--threads 2] [--method nhnet] [--orient mst] [--ratio R] MODEL:NOISE [...]
+        [--points 1000000] [--threads 2] [--method nhnet] [--orient mst] [--ratio R] [--means-only] MODEL:NOISE [...]
 
 For every MODEL:NOISE (an nhnet-datagen model name and a noise level in % of the bounding-box
 diagonal) it samples the model's clean surface (`sample_clean`, uniform), adds the noise
 (`add_noise`, seed 1) and runs `nhnet.estimate` twice on the same points, unoriented:
 `cell_means=False` (the points themselves) and `cell_means=True` (the default; `--ratio R`: from
-noise ratio R instead, `cell_means=R`; a cloud under it runs once, not averaged). Prints the noise
+noise ratio R instead, `cell_means=R`; a cloud under it runs once, not averaged; `--means-only`
+skips the points' own run). Prints the noise
 ratio, the means' count, the estimate's seconds and the unoriented angle error against the true
 normals: RMS, mean, PGP5 / PGP10 and the share over 30 degrees. With `--orient mst` (or up) the
 normals are oriented too, and the share of them whose sign agrees with the true (outward)
@@ -39,6 +40,7 @@ def main() -> None:
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--method", default=None)
     ap.add_argument("--orient", default=None, choices=["mst", "up"])
+    ap.add_argument("--means-only", action="store_true", help="skip the points' own estimate")
     ap.add_argument("--ratio", type=float, default=None,
                     help="noise ratio from which the second run averages (default: the core's)")
     args = ap.parse_args()
@@ -58,7 +60,7 @@ def main() -> None:
             print(f"{model:>20} {level:>4} %  noise ratio {r.noise_ratio:5.2f}  cell means "
                   f"{r.cell_means:7d}  k {r.k_used:3d}  {seconds:6.1f} s  {errors(r.normals, truth)}{signs}",
                   flush=True)
-            if means is not False and r.cell_means == 0:
+            if means is not False and (r.cell_means == 0 or args.means_only):
                 break  # under the threshold: the points run would be the same one
 
 

@@ -140,10 +140,11 @@ learned_fit : bool
     NH-Net only (nhnet-cli --learned-fit): refit each normal of the candidate mix by the learned
     weighted jet fit (default True); False keeps the mix's normals.
 cell_means : bool or float
-    nhnet-cli --cell-means: True (default) estimates a dense cloud whose noise is as large as its
-    spacing (noise ratio >= 1, at least 200 000 points, automatic sizes) on the means of small
-    cubes, each point taking its nearest mean's normal: several times faster there, as accurate;
-    a number > 0 is the noise ratio from which; False always estimates the points themselves. `cell_means` on the result says which ran.
+    nhnet-cli --cell-means: True (default) estimates a dense cloud whose noise exceeds its
+    spacing (noise ratio >= 1.12, at least 200 000 points, automatic sizes) on local means of its
+    points, each point taking its three nearest means' normals: several times faster there, as
+    accurate or more; a number > 0 is the noise ratio from which; False always estimates the
+    points themselves. `cell_means` on the result says which ran.
 
 The GIL is released while the core runs; Ctrl-C interrupts it (KeyboardInterrupt).
 

@@ -542,13 +542,14 @@ case_orient_mst() {
 }
 
 case_cell_means() {
-  # 200 000 points of a unit sphere with noise 0.012 along the radius (spacing ~0.008: noise
-  # ratio above 1): estimated through cell means, oriented through them (MST: outward), every
-  # point in its place with a normal; --cell-means off estimates the points themselves.
+  # 200 000 points of a unit sphere with noise 0.03 along the radius (spacing ~0.008: noise
+  # ratio ~1.17, above the 1.12 threshold): estimated through cell means, oriented through them
+  # (MST: outward), every point in its place with a normal; --cell-means off estimates the
+  # points themselves.
   awk 'BEGIN { srand(5); pi = 3.14159265358979
     for (i = 0; i < 200000; i++) {
       z = 2 * rand() - 1; t = 2 * pi * rand(); r = sqrt(1 - z * z)
-      g = sqrt(-2 * log(1 - rand())) * cos(2 * pi * rand()) * 0.012
+      g = sqrt(-2 * log(1 - rand())) * cos(2 * pi * rand()) * 0.03
       printf "%.9g %.9g %.9g\n", r * cos(t) * (1 + g), r * sin(t) * (1 + g), z * (1 + g) } }' >dense.xyz
   expect 0 estimate dense.xyz out.xyzn --method pca --json --threads 2
   /usr/bin/python3 - <<'EOF' || fail "--cell-means auto: $(cat stdout.txt)"
@@ -568,7 +569,7 @@ EOF
   grep -q "through [0-9]* cell means" stderr.txt || fail "summary lacks 'through N cell means'"
   expect 0 estimate dense.xyz off.xyzn --method pca --json --threads 2 --orient none --cell-means off
   grep -q '"cell_means": 0' stdout.txt || fail "--cell-means off still used means: $(cat stdout.txt)"
-  # A ratio: from that noise ratio on (the sphere reads ~1.2: 50 leaves it to its points).
+  # A ratio: from that noise ratio on (the sphere reads ~1.17: 50 leaves it to its points).
   expect 0 estimate dense.xyz high.xyzn --method pca --json --threads 2 --orient none --cell-means 50
   grep -q '"cell_means": 0' stdout.txt || fail "--cell-means 50 averaged: $(cat stdout.txt)"
   cmp -s off.xyzn high.xyzn || fail "--cell-means 50 differs from --cell-means off"

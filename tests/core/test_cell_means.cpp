@@ -1,5 +1,5 @@
 // Dense noisy clouds through cell means (core/src/pipeline/cell_means.cpp): a cloud whose noise
-// is as large as its spacing is estimated on the means of small cubes, as accurately as on its
+// exceeds its spacing is estimated on local means of its points, as accurately as on its
 // points; other clouds, the off switch, fixed sizes and small clouds keep the points' own
 // estimate bit for bit; non-finite rows stay failed and duplicates share their first copy's.
 #include "fixtures.hpp"
@@ -31,6 +31,8 @@ EstimateOptions small_cloud_options(Method method) {
   EstimateOptions o;
   o.method = method;
   o.cell_means.min_points = 1000;  // the default's 200 000 would make this test slow
+  o.cell_means.noise_ratio = 1.0;  // the sphere below reads 1.01 (the default, 1.12, is met by
+                                   // denser clouds: the probe's ratio grows with the density)
   o.run.threads = 2;
   return o;
 }
@@ -55,7 +57,7 @@ TEST(CellMeans, NoisyDenseSphereThroughFewerMeansAsAccurate) {
     EstimateOptions on = small_cloud_options(method), off = on;
     off.cell_means.noise_ratio = 0;
     const EstimateResult a = estimate_normals(f.points, on), b = estimate_normals(f.points, off);
-    ASSERT_GE(a.noise_ratio, 1.0);
+    ASSERT_GE(a.noise_ratio, on.cell_means.noise_ratio);
     EXPECT_EQ(b.cell_means, 0);
     EXPECT_GT(a.cell_means, 1000);
     EXPECT_LT(a.cell_means, f.points.rows() / 2);  // the cost goes with the means' count

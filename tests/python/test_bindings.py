@@ -87,11 +87,11 @@ def test_sphere_mfps_close_to_radial():
 
 
 def test_dense_noisy_cloud_through_cell_means():
-    # 200 000 points of the unit sphere (spacing ~0.008) with radial noise 0.012: noise ratio
-    # above 1, so the default estimates cell means (core/src/pipeline/cell_means.cpp).
+    # 200 000 points of the unit sphere (spacing ~0.008) with radial noise 0.03: noise ratio
+    # ~1.17, above the 1.12 threshold, so the default estimates cell means (cell_means.cpp).
     rng = np.random.default_rng(3)
     truth = sphere(200000, seed=2)
-    pts = truth * (1 + 0.012 * rng.normal(size=(len(truth), 1)))
+    pts = truth * (1 + 0.03 * rng.normal(size=(len(truth), 1)))
     on = nhnet.estimate(pts, method="pca", threads=2, orient=None)
     off = nhnet.estimate(pts, method="pca", threads=2, orient=None, cell_means=False)
     assert on.noise_ratio >= 1 and off.cell_means == 0

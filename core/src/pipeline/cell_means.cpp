@@ -1,9 +1,12 @@
 // Dense noisy clouds through cell means (not in the paper; CellMeanOptions in estimate.hpp):
 //   1. the noise probe of the whole cloud (the one its own estimate would run);
-//   2. where noise ratio >= CellMeanOptions::noise_ratio, the means of the points in cubes of
-//      `edge` noise deviations (each averages its points' noise, as a larger neighbourhood would);
+//   2. where noise ratio >= CellMeanOptions::noise_ratio, one point per cube of `edge` noise
+//      deviations, replaced by the mean of the points within `edge` of it (each averages its
+//      points' noise, as a larger neighbourhood would; a ball around a point, not the cube
+//      itself, so the means do not follow the cube grid's steps);
 //   3. the estimate of the means (any method, tiled when they are many);
-//   4. every point takes its nearest mean's normal, curvature and candidate flag.
+//   4. every point takes the normal of its three nearest means, weighted by inverse distance
+//      (signs of the nearest), and the nearest's candidate flag.
 #include "pipeline/cell_means.hpp"
 
 #include "nhnet/neighbors/neighbors.hpp"
@@ -21,10 +24,10 @@ namespace {
 
 constexpr int kAxisBits = 21;  // cells per axis below 2^21: three fit one 64-bit key
 
-/// Means of the points `pts` (M x 3) in cubes of `edge` on a grid anchored at their minimum, in
-/// the order of the cubes' keys; each mean sums its points in row order. Empty when the grid
-/// would need more than 2^21 cubes along an axis.
-Points means_of_cells(const Points& pts, double edge) {
+/// One point of `pts` (M x 3) per cube of `edge` on a grid anchored at their minimum: the
+/// lowest row in each cube, in the order of the cubes' keys. Empty when the grid would need more
+/// than 2^21 cubes along an axis.
+std::vector<int64_t> one_per_cell(const Points& pts, double edge) {
   const Eigen::RowVector3d low = pts.colwise().minCoeff();
   const Eigen::RowVector3d cells = ((pts.colwise().maxCoeff() - low) / edge).array().floor();
   if (!(cells.maxCoeff() < double(1 << kAxisBits) - 1)) return {};
@@ -36,48 +39,96 @@ Points means_of_cells(const Points& pts, double edge) {
     keyed[size_t(i)] = {key, int64_t(i)};
   }
   std::sort(keyed.begin(), keyed.end());
-  std::vector<Eigen::RowVector3d> sums;
-  for (size_t s = 0; s < keyed.size();) {
-    size_t e = s;
-    Eigen::RowVector3d sum = Eigen::RowVector3d::Zero();
-    for (; e < keyed.size() && keyed[e].first == keyed[s].first; ++e)
-      sum += pts.row(keyed[e].second);
-    sums.push_back(sum / double(e - s));
-    s = e;
-  }
-  Points means(Eigen::Index(sums.size()), 3);
-  for (size_t c = 0; c < sums.size(); ++c) means.row(Eigen::Index(c)) = sums[c];
+  std::vector<int64_t> rows;
+  for (size_t s = 0; s < keyed.size(); ++s)
+    if (s == 0 || keyed[s].first != keyed[s - 1].first) rows.push_back(keyed[s].second);
+  return rows;
+}
+
+/// The mean of the points of `tree` (over `pts`) within `radius` of each point `rows`.
+Points ball_means(const Points& pts, const Neighbors& tree, const std::vector<int64_t>& rows,
+                  double radius, const RunContext& run) {
+  Points means(Eigen::Index(rows.size()), 3);
+  Progress progress(run.progress);
+  if (run.progress) progress.stage("cell means", 0, 1);
+  parallel_for(int64_t(rows.size()), run.threads, run.progress ? &progress : nullptr,
+               [&](int64_t r) {
+                 thread_local std::vector<std::pair<int32_t, float>> ball;
+                 tree.radius(pts.row(rows[size_t(r)]).transpose(), radius, ball);
+                 Eigen::RowVector3d sum = Eigen::RowVector3d::Zero();
+                 for (const auto& [j, d2] : ball) sum += pts.row(j);
+                 means.row(Eigen::Index(r)) = sum / double(ball.size());  // the point itself is in
+               });
+  progress.throw_if_cancelled();
   return means;
 }
 
-/// For every canonical point, the row of its nearest mean.
-std::vector<int32_t> nearest_means(const Points& pts, const Points& means, const RunContext& run) {
+/// For every canonical point its kNearest nearest means (rows) and their inverse distances.
+struct NearestMeans {
+  static constexpr int kNearest = 3;
+  std::vector<int32_t> rows;  // kNearest per point, nearest first
+  std::vector<float> weights;
+  int32_t nearest(size_t point) const { return rows[point * kNearest]; }
+};
+
+NearestMeans nearest_means(const Points& pts, const Points& means, const RunContext& run) {
   const Neighbors tree(means);
-  std::vector<int32_t> nearest(size_t(pts.rows()));
+  constexpr int kn = NearestMeans::kNearest;
+  NearestMeans out;
+  out.rows.assign(size_t(pts.rows()) * kn, 0);
+  out.weights.assign(size_t(pts.rows()) * kn, 0.f);
+  const int k = int(std::min<Eigen::Index>(kn, means.rows()));
   Progress progress(run.progress);
   if (run.progress) progress.stage("nearest cell mean", 0, 1);
   parallel_for(pts.rows(), run.threads, run.progress ? &progress : nullptr, [&](int64_t i) {
     thread_local std::vector<int32_t> idx;
     thread_local std::vector<float> d2;
-    tree.knn(pts.row(i).transpose(), 1, idx, d2);
-    nearest[size_t(i)] = idx[0];
+    tree.knn(pts.row(i).transpose(), k, idx, d2);
+    for (int j = 0; j < k; ++j) {
+      out.rows[size_t(i) * kn + size_t(j)] = idx[size_t(j)];
+      out.weights[size_t(i) * kn + size_t(j)] = 1.f / std::max(std::sqrt(d2[size_t(j)]), 1e-12f);
+    }
   });
   progress.throw_if_cancelled();
-  return nearest;
+  return out;
+}
+
+/// Point c's normal and curvature from its nearest means' valid ones (inverse-distance weights,
+/// each normal turned to the side of the first valid one); false when none is valid.
+bool blend_means(const NearestMeans& near, size_t c, const EstimateResult& of_means,
+                 Eigen::RowVector3d& normal, double& curvature) {
+  constexpr int kn = NearestMeans::kNearest;
+  Eigen::RowVector3d sum = Eigen::RowVector3d::Zero(), first = sum;
+  double wsum = 0, csum = 0;
+  for (int j = 0; j < kn; ++j) {
+    const int32_t m = near.rows[c * kn + size_t(j)];
+    const double w = near.weights[c * kn + size_t(j)];
+    if (!(w > 0) || !of_means.valid[size_t(m)]) continue;
+    const Eigen::RowVector3d n = of_means.normals.row(m);
+    if (wsum == 0) first = n;
+    sum += (n.dot(first) < 0 ? -w : w) * n;
+    csum += w * of_means.curvature[m];
+    wsum += w;
+  }
+  if (!(wsum > 0) || !(sum.norm() > 0)) return false;
+  normal = sum.normalized();
+  curvature = csum / wsum;
+  return true;
 }
 
 /// The result of the input rows from the means' result: each canonical point's nearest mean's.
-EstimateResult from_means(const Points& points, const Canonical& canon,
-                          const std::vector<int32_t>& nearest, EstimateResult&& of_means) {
+EstimateResult from_means(const Points& points, const Canonical& canon, const NearestMeans& nearest,
+                          EstimateResult&& of_means) {
   EstimateResult res = empty_result(points.rows());
   if (!of_means.candidate.empty()) res.candidate.assign(size_t(points.rows()), 0);
   for (size_t c = 0; c < canon.rows.size(); ++c) {
-    const Eigen::Index row = Eigen::Index(canon.rows[c]), from = nearest[c];
-    if (!of_means.valid[size_t(from)]) continue;
-    res.normals.row(row) = of_means.normals.row(from);
-    res.curvature[row] = of_means.curvature[from];
+    const Eigen::Index row = Eigen::Index(canon.rows[c]);
+    Eigen::RowVector3d normal;
+    if (!blend_means(nearest, c, of_means, normal, res.curvature[row])) continue;
+    res.normals.row(row) = normal;
     res.valid[size_t(row)] = 1;
-    if (!res.candidate.empty()) res.candidate[size_t(row)] = of_means.candidate[size_t(from)];
+    if (!res.candidate.empty())
+      res.candidate[size_t(row)] = of_means.candidate[size_t(nearest.nearest(c))];
   }
   res.tiles = of_means.tiles;
   res.cell_means = of_means.normals.rows();
@@ -90,11 +141,12 @@ EstimateResult from_means(const Points& points, const Canonical& canon,
 }
 
 /// The means, their normals and each input row's mean (rows without a valid mean: -1).
-void keep_means(const Canonical& canon, const std::vector<int32_t>& nearest,
-                const EstimateResult& of_means, Points&& means, MeansRun& keep) {
+void keep_means(const Canonical& canon, const NearestMeans& nearest, const EstimateResult& of_means,
+                Points&& means, MeansRun& keep) {
   keep.mean_of_row.assign(canon.copies.size(), -1);
   for (size_t c = 0; c < canon.rows.size(); ++c)
-    if (of_means.valid[size_t(nearest[c])]) keep.mean_of_row[size_t(canon.rows[c])] = nearest[c];
+    if (of_means.valid[size_t(nearest.nearest(c))])
+      keep.mean_of_row[size_t(canon.rows[c])] = nearest.nearest(c);
   for (size_t i = 0; i < canon.copies.size(); ++i)
     if (canon.copies[i] >= 0 && canon.copies[i] != int64_t(i))
       keep.mean_of_row[i] = keep.mean_of_row[size_t(canon.copies[i])];
@@ -116,9 +168,10 @@ OrientResult orient_through_means(MeansRun& run, EstimateResult& res, const Orie
       ++r.invalid;
       continue;
     }
-    const Eigen::RowVector3d n = run.normals.row(m);
-    if (n.dot(res.normals.row(Eigen::Index(i))) < 0) ++r.flipped;
-    res.normals.row(Eigen::Index(i)) = n;
+    if (run.normals.row(m).dot(res.normals.row(Eigen::Index(i))) < 0) {
+      res.normals.row(Eigen::Index(i)) *= -1;
+      ++r.flipped;
+    }
   }
   return r;
 }
@@ -141,11 +194,10 @@ bool through_cell_means(const Points& points, const EstimateOptions& options, Es
   measured.spacing = probe.noise.spacing * canon.unit;  // input units, as estimate_cloud takes
   if (probe.noise.ratio < cm.noise_ratio) return false;
 
-  Progress top(run.progress);
-  if (run.progress) top.stage("cell means", 0.04, 0.06);
-  Points means = means_of_cells(canon.pts, cm.edge * probe.noise.ratio * probe.noise.spacing);
-  top.throw_if_cancelled();
-  if (means.rows() < 3) return false;
+  const double edge = cm.edge * probe.noise.ratio * probe.noise.spacing;
+  const std::vector<int64_t> centres = one_per_cell(canon.pts, edge);
+  if (centres.size() < 3) return false;
+  Points means = ball_means(canon.pts, *prepared.tree, centres, edge, narrow(run, 0.04, 0.06));
   prepared.tree.reset();  // the points' tree is not needed below
   std::vector<std::string> warnings = std::move(prepared.warnings);
   EstimateOptions o = options;
@@ -154,7 +206,7 @@ bool through_cell_means(const Points& points, const EstimateOptions& options, Es
   o.run = narrow(run, 0.06, 0.95);
   EstimateResult of_means = estimate_points(means, o, TileOverrides{});
   for (const std::string& w : of_means.warnings) warnings.push_back("cell means: " + w);
-  const std::vector<int32_t> nearest = nearest_means(canon.pts, means, narrow(run, 0.95, 1));
+  const NearestMeans nearest = nearest_means(canon.pts, means, narrow(run, 0.95, 1));
   if (keep) keep_means(canon, nearest, of_means, std::move(means), *keep);
   out = from_means(points, canon, nearest, std::move(of_means));
   out.noise_ratio = probe.noise.ratio;
