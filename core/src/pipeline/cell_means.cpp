@@ -66,9 +66,17 @@ Points ball_means(const Points& pts, const Neighbors& tree, const std::vector<in
 /// For every canonical point its kNearest nearest means (rows) and their inverse distances.
 struct NearestMeans {
   static constexpr int kNearest = 3;
-  std::vector<int32_t> rows;  // kNearest per point, nearest first
-  std::vector<float> weights;
-  int32_t nearest(size_t point) const { return rows[point * kNearest]; }
+  std::vector<int32_t> rows;   // kNearest per point, nearest first
+  std::vector<float> weights;  // 0: no such mean (fewer means than kNearest)
+
+  /// The nearest of point c's means with a normal (the side its blend takes); -1 if none.
+  int32_t nearest_valid(size_t c, const EstimateResult& of_means) const {
+    for (int j = 0; j < kNearest; ++j) {
+      const int32_t m = rows[c * kNearest + size_t(j)];
+      if (weights[c * kNearest + size_t(j)] > 0 && of_means.valid[size_t(m)]) return m;
+    }
+    return -1;
+  }
 };
 
 NearestMeans nearest_means(const Points& pts, const Points& means, const RunContext& run) {
@@ -94,18 +102,20 @@ NearestMeans nearest_means(const Points& pts, const Points& means, const RunCont
 }
 
 /// Point c's normal and curvature from its nearest means' valid ones (inverse-distance weights,
-/// each normal turned to the side of the first valid one); false when none is valid.
+/// each normal turned to the side of the nearest valid one); false when none is valid.
 bool blend_means(const NearestMeans& near, size_t c, const EstimateResult& of_means,
                  Eigen::RowVector3d& normal, double& curvature) {
   constexpr int kn = NearestMeans::kNearest;
-  Eigen::RowVector3d sum = Eigen::RowVector3d::Zero(), first = sum;
+  const int32_t side = near.nearest_valid(c, of_means);
+  if (side < 0) return false;
+  const Eigen::RowVector3d first = of_means.normals.row(side);
+  Eigen::RowVector3d sum = Eigen::RowVector3d::Zero();
   double wsum = 0, csum = 0;
   for (int j = 0; j < kn; ++j) {
     const int32_t m = near.rows[c * kn + size_t(j)];
     const double w = near.weights[c * kn + size_t(j)];
     if (!(w > 0) || !of_means.valid[size_t(m)]) continue;
     const Eigen::RowVector3d n = of_means.normals.row(m);
-    if (wsum == 0) first = n;
     sum += (n.dot(first) < 0 ? -w : w) * n;
     csum += w * of_means.curvature[m];
     wsum += w;
@@ -128,7 +138,7 @@ EstimateResult from_means(const Points& points, const Canonical& canon, const Ne
     res.normals.row(row) = normal;
     res.valid[size_t(row)] = 1;
     if (!res.candidate.empty())
-      res.candidate[size_t(row)] = of_means.candidate[size_t(nearest.nearest(c))];
+      res.candidate[size_t(row)] = of_means.candidate[size_t(nearest.nearest_valid(c, of_means))];
   }
   res.tiles = of_means.tiles;
   res.cell_means = of_means.normals.rows();
@@ -145,8 +155,7 @@ void keep_means(const Canonical& canon, const NearestMeans& nearest, const Estim
                 Points&& means, MeansRun& keep) {
   keep.mean_of_row.assign(canon.copies.size(), -1);
   for (size_t c = 0; c < canon.rows.size(); ++c)
-    if (of_means.valid[size_t(nearest.nearest(c))])
-      keep.mean_of_row[size_t(canon.rows[c])] = nearest.nearest(c);
+    keep.mean_of_row[size_t(canon.rows[c])] = nearest.nearest_valid(c, of_means);
   for (size_t i = 0; i < canon.copies.size(); ++i)
     if (canon.copies[i] >= 0 && canon.copies[i] != int64_t(i))
       keep.mean_of_row[i] = keep.mean_of_row[size_t(canon.copies[i])];

@@ -17,7 +17,8 @@ struct MeansRun {
   /// The means (M x 3, in the frame of the canonical points) and their estimated normals.
   Points means;
   Normals normals;
-  /// For every input row its mean's row; -1 for rows without a normal.
+  /// For every input row the nearest of its means with a normal (whose side its blended normal
+  /// takes); -1 for rows without a normal.
   std::vector<int32_t> mean_of_row;
   /// Input length of one unit of the means' frame.
   double unit = 1;
@@ -37,7 +38,7 @@ EstimateResult estimate_normals_keeping_means(const Points& points, const Estima
                                               MeansRun* keep);
 
 /// Orients the means of `run` (an MST or up orientation of the points would take 5-10 times
-/// longer) and gives every row of `res` its mean's oriented normal. Counts: flipped and invalid
+/// longer) and turns every row of `res` to its mean's oriented side. Counts: flipped and invalid
 /// over the rows; unoriented, components and the flood fill's votes over the means.
 OrientResult orient_through_means(MeansRun& run, EstimateResult& res, const OrientOptions& orient);
 
