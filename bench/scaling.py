@@ -12,10 +12,11 @@ The Gaussian noise is 0.1 % of the bounding-box diagonal at 100k points and shri
 sizes then stay the same and time per point measures the implementation, not a noise level that
 grows with density (a fixed 0.1 % at 1M points makes the auto scales 137/274/300 instead of
 43/86/129). `--noise` instead gives fixed levels (% of the diagonal), each a cloud at every size:
-time per point across noise levels, the other half of issue 23's flatness target. Every method runs in its own process (nhnet-bench-worker), so the peak RSS is its
-own; PCL NormalEstimationOMP (k=50) runs before every other method and once at the end, and each
-method's ratio is to the mean of the two PCL runs around it, taken seconds apart on the same
-cloud (the machine may be shared). Per-stage seconds come from the core's progress stages.
+time per point across noise levels, the other half of issue 23's flatness target. Every method
+runs in its own process (nhnet-bench-worker), so the peak RSS is its own; PCL
+NormalEstimationOMP (k=50) runs before every other method and once at the end, and each method's
+ratio is to the mean of the two PCL runs around it, taken seconds apart on the same cloud (the
+machine may be shared). Per-stage seconds come from the core's progress stages.
 `mfps-stream` is the out-of-core path, `nhnet-cli estimate --stream` on the cloud's text file:
 its time is the whole command (it reads the file in passes and writes the result), its peak
 is the process's, and its normals are scored against the cloud's ground truth like the others.
@@ -198,6 +199,11 @@ def fmt(v, spec=".2f") -> str:
     return "—" if v is None else format(v, spec)
 
 
+def series_name(m: str, level) -> str:
+    """A method's label, with the cloud's fixed noise level when there is one."""
+    return LABELS.get(m, m) + ("" if level is None else f", {level:g} %")
+
+
 def per_point(records: list[dict], n: int, m: str, level) -> float | None:
     """Mean µs per point of method m's runs on the cloud (n, level); None when none ran."""
     ok = [r["us_per_point"] for r in records
@@ -262,8 +268,7 @@ def report(records: list[dict], meta: dict, methods: list[str]) -> list[str]:
         row = {n: x for n, x in row.items() if x is not None}
         if row:
             base = row[min(row)]
-            name = LABELS.get(m, m) + ("" if level is None else f", {level:g} %")
-            md.append(f"| {name} | "
+            md.append(f"| {series_name(m, level)} | "
                       + " | ".join(fmt(row[n] / base) if n in row else "—" for n in sizes) + " |")
     if len(levels) > 1:
         md += noise_table(records, methods, sizes, levels)
@@ -295,7 +300,7 @@ def write_plot(records: list[dict], methods: list[str], path: Path, title: str) 
                      and "error" not in r), key=lambda r: r["n"])
         if not ok:
             continue
-        xs, name = [r["n"] for r in ok], LABELS.get(m, m) + ("" if level is None else f", {level:g} %")
+        xs, name = [r["n"] for r in ok], series_name(m, level)
         axes[0].plot(xs, [r["us_per_point"] for r in ok], "o-", label=name)
         axes[1].plot(xs, [r["peak_bytes_per_point"] for r in ok], "o-", label=name)
     axes[0].set_ylabel("µs per point (wall)")

@@ -2,14 +2,15 @@
 // checks that turn them into nhnet::EstimateOptions / OrientOptions (exit 2).
 #include "estimate_args.hpp"
 
+#include "args.hpp"
 #include "cloud_io.hpp"
+#include "errors.hpp"
 #include "json.hpp"
 #include "nhnet/errors.hpp"
 #include "nhnet/io/io.hpp"
 
 #include <CLI/CLI.hpp>
 
-#include <cmath>
 #include <string>
 
 namespace nhcli {
@@ -154,17 +155,12 @@ void check_paths(const EstimateArgs& a) {
 double parse_cell_means(const std::string& text) {
   if (text == "auto") return nhnet::EstimateOptions{}.cell_means.noise_ratio;
   if (text == "off") return 0;
-  size_t used = 0;
-  double ratio = 0;
   try {
-    ratio = std::stod(text, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used != text.size() || !std::isfinite(ratio) || ratio <= 0)
+    return parse_double("--cell-means", text, 0);
+  } catch (const nhnet::InvalidOptions&) {
     throw nhnet::InvalidOptions("--cell-means must be auto, off or a noise ratio > 0, got '" +
-                                text + "'");
-  return ratio;
+                                one_line(text) + "'");
+  }
 }
 
 /// The estimator's and orientation's options.

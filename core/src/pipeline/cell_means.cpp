@@ -102,12 +102,13 @@ NearestMeans nearest_means(const Points& pts, const Points& means, const RunCont
 }
 
 /// Point c's normal and curvature from its nearest means' valid ones (inverse-distance weights,
-/// each normal turned to the side of the nearest valid one); false when none is valid.
-bool blend_means(const NearestMeans& near, size_t c, const EstimateResult& of_means,
-                 Eigen::RowVector3d& normal, double& curvature) {
+/// each normal turned to the side of the nearest valid one); returns that mean's row, or -1
+/// (nothing written) when none is valid.
+int32_t blend_means(const NearestMeans& near, size_t c, const EstimateResult& of_means,
+                    Eigen::RowVector3d& normal, double& curvature) {
   constexpr int kn = NearestMeans::kNearest;
   const int32_t side = near.nearest_valid(c, of_means);
-  if (side < 0) return false;
+  if (side < 0) return -1;
   const Eigen::RowVector3d first = of_means.normals.row(side);
   Eigen::RowVector3d sum = Eigen::RowVector3d::Zero();
   double wsum = 0, csum = 0;
@@ -120,10 +121,9 @@ bool blend_means(const NearestMeans& near, size_t c, const EstimateResult& of_me
     csum += w * of_means.curvature[m];
     wsum += w;
   }
-  if (!(wsum > 0) || !(sum.norm() > 0)) return false;
-  normal = sum.normalized();
+  normal = sum.normalized();  // the side's own normal has weight > 0: the sum is not zero
   curvature = csum / wsum;
-  return true;
+  return side;
 }
 
 /// The result of the input rows from the means' result: each canonical point's nearest mean's.
@@ -134,11 +134,11 @@ EstimateResult from_means(const Points& points, const Canonical& canon, const Ne
   for (size_t c = 0; c < canon.rows.size(); ++c) {
     const Eigen::Index row = Eigen::Index(canon.rows[c]);
     Eigen::RowVector3d normal;
-    if (!blend_means(nearest, c, of_means, normal, res.curvature[row])) continue;
+    const int32_t side = blend_means(nearest, c, of_means, normal, res.curvature[row]);
+    if (side < 0) continue;
     res.normals.row(row) = normal;
     res.valid[size_t(row)] = 1;
-    if (!res.candidate.empty())
-      res.candidate[size_t(row)] = of_means.candidate[size_t(nearest.nearest_valid(c, of_means))];
+    if (!res.candidate.empty()) res.candidate[size_t(row)] = of_means.candidate[size_t(side)];
   }
   res.tiles = of_means.tiles;
   res.cell_means = of_means.normals.rows();
