@@ -58,16 +58,18 @@ def data_clouds(a) -> list:
 
 
 def cloud_data(a, c: dict) -> dict:
-    """Members (spread over max(k, --members) nearest), their offsets and normals, of sampled
-    points of cloud c, with the default pipeline's normals before the learned fit."""
+    """Members (spread over max(--support x k, --members) nearest), their offsets and normals, of
+    sampled points of cloud c, with the default pipeline's normals before the learned fit."""
     import nhnet
     from scipy.spatial import cKDTree
     # cut to the benchmark's density (bench/nhnet_bench.py FULL_POINTS)
     xyz, gt, rows = load_cloud(Path(a.data_dir), a.split, c, cut=True)
     rows = rows[::max(1, len(rows) // a.rows)][:a.rows]
-    r = nhnet.estimate(xyz, method="nhnet", orient=None, threads=a.threads, learned_fit=False)
+    r = nhnet.estimate(xyz, method="nhnet", orient=None, threads=a.threads, learned_fit=False,
+                       refine=a.refine)
     n0, k = np.asarray(r.normals), int(r.k_used)
-    _, nb = cKDTree(xyz).query(xyz[rows], k=min(max(k, a.members), len(xyz)))
+    reach = max(int(round(a.support * k)), a.members)
+    _, nb = cKDTree(xyz).query(xyz[rows], k=min(reach, len(xyz)))
     nb = nb[:, spread(nb.shape[1], a.members)]
     return dict(q=(xyz[nb] - xyz[rows][:, None]).astype(np.float32),
                 nn=n0[nb].astype(np.float32), n0=n0[rows], gt=unit(gt[rows]),
@@ -325,6 +327,11 @@ def main(argv=None) -> int:
     d.add_argument("--members", type=int, default=MEMBERS,
                    help=f"members per point (default {MEMBERS}, the C++'s; others: fit and "
                         "report only, an experiment)")
+    d.add_argument("--refine", default="auto", choices=["auto", "all", "moved"],
+                   help="the pipeline's refine mode before the fit (default: the core's auto)")
+    d.add_argument("--support", type=float, default=1.0,
+                   help="members spread over this times the noise-driven k (default 1, the "
+                        "C++'s; others: fit and report only, an experiment)")
     f = sub.add_parser("fit")
     f.add_argument("data")
     f.add_argument("--write", default="")

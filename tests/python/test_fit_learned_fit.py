@@ -25,7 +25,7 @@ def deg(a, b):
 def test_cpp_pipeline_is_the_tools_fit(tmp_path):
     cloud = one_cloud_benchmark(tmp_path)
     a = types.SimpleNamespace(data_dir=str(tmp_path), split="benchmark", rows=800, threads=1,
-                              members=lf.MEMBERS)
+                              members=lf.MEMBERS, support=1.0, refine="auto")
     z = lf.cloud_data(a, cloud)
     m = lf.read_inc(SHIPPED, torch)
     with torch.no_grad():
@@ -55,3 +55,18 @@ def test_written_weights_read_back(tmp_path):
     with torch.no_grad():
         diff = (m(q, nn_, n0, noise) - back(q, nn_, n0, noise)).abs().max()
     assert float(diff) < 1e-5  # weights printed to 9 significant digits
+
+
+def test_support_spreads_the_members_over_more_neighbours(tmp_path):
+    # `data --support 3` (an experiment): the same points and pipeline normals, members spread
+    # over the 3k nearest instead of max(k, 64) (this cloud's k: 42).
+    cloud = one_cloud_benchmark(tmp_path)
+    base = dict(data_dir=str(tmp_path), split="benchmark", rows=200, threads=1,
+                members=lf.MEMBERS, refine="auto")
+    near = lf.cloud_data(types.SimpleNamespace(**base, support=1.0), cloud)
+    wide = lf.cloud_data(types.SimpleNamespace(**base, support=3.0), cloud)
+    assert 3 * near["k"] > 1.9 * lf.MEMBERS
+    assert np.array_equal(near["n0"], wide["n0"])
+    reach = [np.linalg.norm(z["q"], axis=2).max(1) for z in (near, wide)]
+    # about twice the neighbours on a surface: ~1.4x the radius; 1.2 leaves room for the edges
+    assert np.median(reach[1] / reach[0]) > 1.2
