@@ -89,6 +89,16 @@ def analytic_surface(shape: str, n: int, rng):
     return pts[:n], nrm[:n]
 
 
+def analytic_clouds():
+    """Every ANALYTIC cloud (shape, points, noise %, noisy points, true normals), each from its
+    own fixed seed: the same clouds on every call."""
+    for i, (shape, n, level) in enumerate(ANALYTIC):
+        rng = np.random.default_rng(100 + i)
+        pts, nrm = analytic_surface(shape, n, rng)
+        diag = np.linalg.norm(pts.max(0) - pts.min(0))
+        yield shape, n, level, pts + rng.normal(scale=level / 100 * diag, size=pts.shape), nrm
+
+
 def cmd_analytic(a) -> int:
     """Smooth closed shapes for the mix's training data (split "analytic"): the mesh models are
     organic but thin-limbed, and a mix fitted on them alone under-trusts the network on broad
@@ -96,11 +106,7 @@ def cmd_analytic(a) -> int:
     out = Path(a.out) / "analytic"
     out.mkdir(parents=True, exist_ok=True)
     clouds = []
-    for i, (shape, n, level) in enumerate(ANALYTIC):
-        rng = np.random.default_rng(100 + i)
-        pts, nrm = analytic_surface(shape, n, rng)
-        diag = np.linalg.norm(pts.max(0) - pts.min(0))
-        pts = pts + rng.normal(scale=level / 100 * diag, size=pts.shape)
+    for shape, n, level, pts, nrm in analytic_clouds():
         name = f"{shape}_{n}_noise{level:g}"
         np.savetxt(out / f"{name}.xyz", pts, fmt="%.8f")
         np.savetxt(out / f"{name}.normals", nrm, fmt="%.8f")

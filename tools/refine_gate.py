@@ -72,14 +72,20 @@ def mean(xs: list[float]) -> float:
     return sum(xs) / len(xs) if xs else float("nan")
 
 
+def mode_means(rs: list[dict]) -> dict:
+    """The clouds' mean RMS, mean error and seconds under each mode: col[key][mode]."""
+    return {k: {m: mean([r[m][k] for r in rs]) for m in ("all", "moved")}
+            for k in ("rms", "mean", "seconds")}
+
+
 def by_category(recs: list[dict]) -> None:
     """Per category: the clouds' mean RMS and mean error under each mode."""
     print("\n| category | clouds | RMS all | RMS moved | Δ RMS | mean all | mean moved | Δ mean |")
     print("|---|---|---|---|---|---|---|---|")
     for cat in sorted({r["category"] for r in recs}):
         rs = [r for r in recs if r["category"] == cat]
-        rms, avg = ({m: mean([r[m][k] for r in rs]) for m in ("all", "moved")}
-                    for k in ("rms", "mean"))
+        col = mode_means(rs)
+        rms, avg = col["rms"], col["mean"]
         print(f"| {cat} | {len(rs)} | {rms['all']:.2f} | {rms['moved']:.2f} | "
               f"{rms['moved'] - rms['all']:+.2f} | {avg['all']:.2f} | {avg['moved']:.2f} | "
               f"{avg['moved'] - avg['all']:+.2f} |")
@@ -95,8 +101,7 @@ def cmd_report(a) -> int:
         rs = [r for r in recs if lo <= r["all"]["noise_ratio"] < hi]
         if not rs:
             continue
-        col = {k: {m: mean([r[m][k] for r in rs]) for m in ("all", "moved")}
-               for k in ("rms", "mean", "seconds")}
+        col = mode_means(rs)
         span = f"{lo:g}-{hi:g}" if hi < 100 else f">= {lo:g}"
         print(f"| {span} | {len(rs)} | {col['rms']['all']:.2f} | {col['rms']['moved']:.2f} | "
               f"{col['rms']['moved'] - col['rms']['all']:+.2f} | {col['mean']['all']:.2f} | "
@@ -123,11 +128,8 @@ def cmd_analytic(a) -> int:
 
     import nhnet
     sys.path.insert(0, str(Path(__file__).resolve().parent))
-    from fit_candidate_mix import ANALYTIC, analytic_surface
-    for i, (shape, n, level) in enumerate(ANALYTIC):
-        rng = np.random.default_rng(100 + i)  # fit_candidate_mix.py analytic's clouds
-        pts, truth = analytic_surface(shape, n, rng)
-        pts = pts + rng.normal(scale=level / 100 * np.linalg.norm(np.ptp(pts, 0)), size=pts.shape)
+    from fit_candidate_mix import analytic_clouds
+    for shape, n, level, pts, truth in analytic_clouds():
         cols = []
         for refine in ("all", "moved"):
             r = nhnet.estimate(pts, refine=refine, orient=None, threads=a.threads)
