@@ -11,8 +11,8 @@
 //   nhnet-bench-worker --list
 //
 // Output: {"method":..., "k":..., "points":..., "time_s":..., "rss_before_mb":...,
-//          "mean_deg":..., "rms_deg":..., "pgp5":..., "pgp10":..., "count":..., "invalid":...,
-//          "k_used":..., "scales_used":[...], "stages":{"name": seconds, ...}}
+//          "mean_deg":..., "rms_deg":..., "pgp5":..., "pgp10":..., "over30":..., "count":...,
+//          "invalid":..., "k_used":..., "scales_used":[...], "stages":{"name": seconds, ...}}
 // "stages" (nhnet methods): wall seconds per progress stage of the core (start, kd-tree,
 // neighbours, pca, bandwidth, mfps planes, mfps selection, bilateral filter, canonical frames,
 // height maps, nhnet), timed from the core's progress callback; they add up to time_s.
@@ -229,12 +229,13 @@ int main(int argc, char** argv) {
     scales += "]";
     std::printf(
         "{\"method\": \"%s\", \"k\": %d, \"points\": %lld, \"time_s\": %s, \"rss_before_mb\": %s, "
-        "\"mean_deg\": %s, \"rms_deg\": %s, \"pgp5\": %s, \"pgp10\": %s, \"count\": %lld, "
+        "\"mean_deg\": %s, \"rms_deg\": %s, \"pgp5\": %s, \"pgp10\": %s, \"over30\": %s, "
+        "\"count\": %lld, "
         "\"invalid\": %lld, \"k_used\": %d, \"scales_used\": %s, \"stages\": %s}\n",
         a.method.c_str(), a.k, static_cast<long long>(cloud.size()), num(secs).c_str(),
         num(rss_before).c_str(), num(s.mean).c_str(), num(s.rms).c_str(), num(s.pgp5).c_str(),
-        num(s.pgp10).c_str(), static_cast<long long>(s.count), static_cast<long long>(s.invalid),
-        out.k_used, scales.c_str(), stages.c_str());
+        num(s.pgp10).c_str(), num(s.over30).c_str(), static_cast<long long>(s.count),
+        static_cast<long long>(s.invalid), out.k_used, scales.c_str(), stages.c_str());
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "nhnet-bench-worker: %s: %s\n", a.method.c_str(), e.what());

@@ -5,7 +5,8 @@ Protocol: docs/design/benchmark-protocol.md (paper Sec. 6.1). Data: nhnet-datage
 generated here when missing. For every cloud and every method one child process runs the
 estimator (``nhnet-bench-worker`` for nhnet / PCL / CGAL, ``open3d_worker.py`` for Open3D), so the
 peak RSS read with ``os.wait4`` is that method's own. Accuracy is scored with nhnet's metrics
-(core/include/nhnet/eval/metrics.hpp: unoriented angle error; mean, RMS, PGP5, PGP10).
+(core/include/nhnet/eval/metrics.hpp: unoriented angle error; mean, RMS, PGP5, PGP10, share over
+30 degrees).
 
     /usr/bin/python3 bench/nhnet_bench.py [--quick] [--points N] [--out DIR] [--data DIR]
         [--categories A,B] [--models M1,M2] [--levels 0.1,0.2] [--methods a,b] [--threads T]
@@ -174,7 +175,8 @@ class Runner:
                 else:
                     res.update(mean_deg=score["mean_deg"], rms_deg=score["rms_deg"],
                                pgp5=score["pgp5_pct"] / 100.0, pgp10=score["pgp10_pct"] / 100.0,
-                               count=score["count"], invalid=score["invalid"])
+                               over30=score["over30_pct"] / 100.0, count=score["count"],
+                               invalid=score["invalid"])
             est.unlink(missing_ok=True)
         else:
             cmd = [str(self.worker), method, str(k), str(gt), "--threads", str(self.threads)]
@@ -190,7 +192,8 @@ class Runner:
             rec["error"] = f"{why}: {r['stderr'].strip()[-300:]}"
         else:
             rec.update({key: res[key] for key in ("time_s", "rss_before_mb", "mean_deg", "rms_deg",
-                                                   "pgp5", "pgp10", "count", "invalid")})
+                                                   "pgp5", "pgp10", "over30", "count",
+                                                   "invalid")})
             for key in ("k_used", "scales_used"):
                 if key in res:
                     rec[key] = res[key]
@@ -250,6 +253,9 @@ def aggregate(recs: list[dict], ref_time: dict) -> dict:
         out[key] = sum(r[key] for r in ok) / n
     for key in ("pgp5", "pgp10"):
         out[key] = 100.0 * sum(r[key] for r in ok) / n
+    # records of runs before the share over 30 degrees was measured have none: no figure then
+    out["over30"] = (100.0 * sum(r["over30"] for r in ok) / n
+                     if all("over30" in r for r in ok) else None)
     out["time_s"] = sum(r["time_s"] for r in ok) / n
     ratios = [r["time_s"] / ref_time[r["_ref"]] for r in ok
               if ref_time.get(r.get("_ref"), 0) > 0 and r["time_s"] > 0]
@@ -270,21 +276,22 @@ def method_order(key: str) -> tuple:
 
 
 def summary_table(groups: dict[str, list[dict]], ref_time: dict, notes: dict) -> list[str]:
-    lines = ["| method | mean ° | RMS ° | PGP5 % | PGP10 % | time s/cloud | × PCL time | "
+    lines = ["| method | mean ° | RMS ° | PGP5 % | PGP10 % | > 30° % | time s/cloud | × PCL time | "
              "peak MB | Δ MB | failed pts | clouds |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for key in sorted(groups, key=method_order):
         a = aggregate(groups[key], ref_time)
         m = key.partition(" k=")[0]
         label = METHODS[m][0] + (f" (k={key.partition(' k=')[2]})" if " k=" in key else "")
         if not a.get("ok"):
             why = notes.get(m) or (groups[key][0].get("error", "failed") if groups[key] else "")
-            lines.append(f"| {label} | not run: {why} | | | | | | | | | {a['clouds']} |")
+            lines.append(f"| {label} | not run: {why} | | | | | | | | | | {a['clouds']} |")
             continue
         errs = f" ({a['errors']} failed)" if a["errors"] else ""
         lines.append(
             f"| {label} | {a['mean_deg']:.2f} | {a['rms_deg']:.2f} | {a['pgp5']:.1f} | "
-            f"{a['pgp10']:.1f} | {a['time_s']:.3f} | {fmt(a['ratio'])} | {a['peak_mb']:.0f} | "
+            f"{a['pgp10']:.1f} | {fmt(a['over30'])} | {a['time_s']:.3f} | {fmt(a['ratio'])} | "
+            f"{a['peak_mb']:.0f} | "
             f"{a['delta_mb']:.0f} | {a['invalid']} | {a['ok']}{errs} |")
     return lines
 
@@ -357,8 +364,8 @@ def build_report(records: list[dict], meta: dict) -> tuple[list[str], dict]:
           f"{meta['threads']}, method processes {meta['children_s']:.0f} s in all (wall of "
           f"this invocation {meta['wall_s']:.0f} s)",
           "", "Errors are unoriented angles in degrees (nhnet metrics), averaged over the "
-          "clouds; PGPx = % of points under x°. Time: the estimator call only (wall, mean per "
-          "cloud), `× PCL time` = geometric mean over clouds of time / PCL "
+          "clouds; PGPx = % of points under x°, > 30° % = % of points over 30°. Time: the "
+          "estimator call only (wall, mean per cloud), `× PCL time` = geometric mean over clouds of time / PCL "
           "NormalEstimationOMP's time on the same cloud at the same K. Peak MB: the largest "
           "max RSS of the method's own process over the clouds (Δ MB: minus its RSS before the "
           "call, i.e. the method's working memory). K per category: "

@@ -168,7 +168,8 @@ void print_eval_result(const std::string& est, const std::string& gt, const nhne
     js << "{\"estimated\": " << json_string(est) << ", \"ground_truth\": " << json_string(gt)
        << ", \"mean_deg\": " << json_number(s.mean, 8) << ", \"rms_deg\": " << json_number(s.rms, 8)
        << ", \"pgp5_pct\": " << json_number(s.pgp5 * 100.0, 8)
-       << ", \"pgp10_pct\": " << json_number(s.pgp10 * 100.0, 8) << ", \"count\": " << s.count
+       << ", \"pgp10_pct\": " << json_number(s.pgp10 * 100.0, 8)
+       << ", \"over30_pct\": " << json_number(s.over30 * 100.0, 8) << ", \"count\": " << s.count
        << ", \"invalid\": " << s.invalid << "}";
     std::cout << js.str() << std::endl;
     return;
@@ -177,6 +178,7 @@ void print_eval_result(const std::string& est, const std::string& gt, const nhne
   std::printf("rms      %.4f deg\n", s.rms);
   std::printf("pgp5     %.2f %%\n", s.pgp5 * 100.0);
   std::printf("pgp10    %.2f %%\n", s.pgp10 * 100.0);
+  std::printf("over30   %.2f %%\n", s.over30 * 100.0);
   std::printf("count    %lld\n", static_cast<long long>(s.count));
   std::printf("invalid  %lld\n", static_cast<long long>(s.invalid));
   std::fflush(stdout);

@@ -5,7 +5,7 @@ Co-supported Normal Estimation"), Python bindings of the C++ core.
     cloud = nhnet.read("scan.ply")                      # nhnet.Cloud: points, normals, extras
     normals = nhnet.estimate_normals(cloud.points)      # (N, 3) float64, NaN rows = failed
     nhnet.write("scan-normals.ply", cloud, normals)     # keeps the file's colours etc.
-    print(nhnet.metrics(normals, gt_normals))           # mean / rms degrees, pgp5, pgp10
+    print(nhnet.metrics(normals, gt_normals))           # mean / rms degrees, pgp5, pgp10, over30
 
 Errors are nhnet.Error subclasses carrying the core's message: InvalidOptions and
 UnprocessableInput (ValueError), InputError (ValueError and OSError), OutputError (OSError),

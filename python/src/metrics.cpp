@@ -19,7 +19,8 @@ void check_sizes(const Normals& est, const Normals& gt) {
 const auto kStatFields =
     std::make_tuple(field("mean", &AngleStats::mean), field("rms", &AngleStats::rms),
                     field("pgp5", &AngleStats::pgp5), field("pgp10", &AngleStats::pgp10),
-                    field("count", &AngleStats::count), field("invalid", &AngleStats::invalid));
+                    field("over30", &AngleStats::over30), field("count", &AngleStats::count),
+                    field("invalid", &AngleStats::invalid));
 
 }  // namespace
 
@@ -44,8 +45,9 @@ void register_metrics(py::module_& m) {
       },
       "Accuracy of estimated normals against ground truth (both (N, 3), same points in the same "
       "order), as `nhnet-cli eval` reports it: {'mean', 'rms'} unoriented angle error in "
-      "degrees, {'pgp5', 'pgp10'} share of points under 5 / 10 degrees in [0, 1], 'count' "
-      "points compared, 'invalid' points left out because a normal is NaN or zero.",
+      "degrees, {'pgp5', 'pgp10'} share of points under 5 / 10 degrees in [0, 1], 'over30' "
+      "share over 30 degrees in [0, 1], 'count' points compared, 'invalid' points left out because "
+      "a normal is NaN or zero.",
       py::arg("est"), py::arg("gt"));
 }
 

@@ -393,7 +393,8 @@ case_bad_parameters() {
 
 case_eval_known_pair() {
   # 6 points: 0 deg, 0 deg (opposite sign: unoriented), 90 deg, 90 deg, 45 deg, and one zero
-  # estimated normal (invalid). Errors 0 0 90 90 45 -> mean 45, RMS sqrt(18225/5), PGP5/10 40 %.
+  # estimated normal (invalid). Errors 0 0 90 90 45 -> mean 45, RMS sqrt(18225/5), PGP5/10 40 %,
+  # over 30 degrees 60 %.
   cat >gt.xyzn <<'EOF'
 0 0 0 0 0 1
 1 0 0 0 0 1
@@ -416,6 +417,7 @@ EOF
   approx "$(eval_value rms)" "$(awk 'BEGIN { printf "%.6f", sqrt(18225 / 5) }')"
   approx "$(eval_value pgp5)" 40
   approx "$(eval_value pgp10)" 40
+  approx "$(eval_value over30)" 60
   approx "$(eval_value count)" 5 0
   approx "$(eval_value invalid)" 1 0
   expect 0 eval est.xyzn gt.xyzn --json
@@ -426,6 +428,7 @@ d = json.load(open("stdout.txt"))
 assert abs(d["mean_deg"] - 45) < 1e-6, d
 assert abs(d["rms_deg"] - math.sqrt(18225 / 5)) < 1e-6, d
 assert abs(d["pgp5_pct"] - 40) < 1e-9 and abs(d["pgp10_pct"] - 40) < 1e-9, d
+assert abs(d["over30_pct"] - 60) < 1e-9, d
 assert d["count"] == 5 and d["invalid"] == 1, d
 EOF
   fi
@@ -433,6 +436,7 @@ EOF
   expect 0 eval gt.xyzn gt.xyzn
   approx "$(eval_value mean)" 0
   approx "$(eval_value pgp5)" 100
+  approx "$(eval_value over30)" 0
 }
 
 case_eval_errors() {

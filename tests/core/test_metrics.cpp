@@ -23,6 +23,15 @@ TEST(Metrics, HandComputedAngles) {
   EXPECT_NEAR(s.rms, std::sqrt((90.0 * 90 + 45.0 * 45) / 4.0), 1e-9);
   EXPECT_NEAR(s.pgp5, 0.5, 1e-12);
   EXPECT_NEAR(s.pgp10, 0.5, 1e-12);
+  EXPECT_NEAR(s.over30, 0.5, 1e-12);  // 90 and 45 degrees
+}
+
+TEST(Metrics, ShareOverThirtyDegreesIsStrict) {
+  Eigen::VectorXd e(4);
+  e << 29.9, 30.0, 30.1, NAN;
+  const AngleStats s = angle_stats(e);
+  EXPECT_EQ(s.count, 3);
+  EXPECT_NEAR(s.over30, 1.0 / 3.0, 1e-12);  // only 30.1; the NaN row is left out
 }
 
 TEST(Metrics, InvalidRowsAreCountedNotAveraged) {

@@ -61,10 +61,13 @@ def test_numbers_are_sane(quick):
             continue
         assert 0 <= r["mean_deg"] <= r["rms_deg"] <= 90, r
         assert 0 <= r["pgp5"] <= r["pgp10"] <= 1, r
+        # a point over 30 degrees is not under 10: the share over 30 is at most 1 - PGP10
+        assert 0 <= r["over30"] <= 1 - r["pgp10"] + 1e-12, r
         assert r["time_s"] > 0 and r["peak_mb"] > 0 and r["invalid"] == 0, r
         assert r["count"] == r["points"] == nhnet_bench.QUICK_POINTS, r
     agg = results["aggregates"]
     assert agg["Overall"]["pcl-pca"]["ratio"] == pytest.approx(1.0)
+    assert agg["Overall"]["pcl-pca"]["over30"] is not None
 
 
 def test_pca_peers_agree_and_are_accurate_on_smooth_surface(quick):

@@ -263,6 +263,7 @@ def test_metrics_match_definition():
     assert m["mean"] == pytest.approx((0 + 7 + 90) / 3, abs=1e-9)
     assert m["rms"] == pytest.approx(math.sqrt((49 + 8100) / 3), abs=1e-9)
     assert m["pgp5"] == pytest.approx(1 / 3) and m["pgp10"] == pytest.approx(2 / 3)
+    assert m["over30"] == pytest.approx(1 / 3)
     e = nhnet.angle_errors(est, gt)
     np.testing.assert_allclose(e[:3], [0, 7, 90], atol=1e-9)
     assert np.isnan(e[3])

@@ -1,5 +1,5 @@
 // Accuracy metrics (benchmark protocol): unoriented angle error acos(min(1, |n . g|)) in degrees,
-// mean, RMS, PGP5, PGP10.
+// mean, RMS, PGP5, PGP10, share over 30 degrees.
 #include "nhnet/eval/metrics.hpp"
 
 #include "nhnet/errors.hpp"
@@ -34,7 +34,7 @@ Eigen::VectorXd angle_errors_deg(const Normals& estimated, const Normals& ground
 AngleStats angle_stats(const Eigen::VectorXd& errors_deg) {
   AngleStats s;
   double sum = 0, sum2 = 0;
-  int64_t below5 = 0, below10 = 0;
+  int64_t below5 = 0, below10 = 0, above30 = 0;
   for (Eigen::Index i = 0; i < errors_deg.size(); ++i) {
     const double e = errors_deg[i];
     if (!std::isfinite(e)) {
@@ -46,6 +46,7 @@ AngleStats angle_stats(const Eigen::VectorXd& errors_deg) {
     sum2 += e * e;
     below5 += e < 5.0;
     below10 += e < 10.0;
+    above30 += e > 30.0;
   }
   if (s.count > 0) {
     const double c = double(s.count);
@@ -53,6 +54,7 @@ AngleStats angle_stats(const Eigen::VectorXd& errors_deg) {
     s.rms = std::sqrt(sum2 / c);
     s.pgp5 = double(below5) / c;
     s.pgp10 = double(below10) / c;
+    s.over30 = double(above30) / c;
   }
   return s;
 }

@@ -1,5 +1,6 @@
 // Accuracy metrics (benchmark protocol). Normals: unoriented angle error
-// e = acos(min(1, |n_est . n_gt|)) in degrees, and its mean, RMS, PGP5, PGP10. Points (denoising):
+// e = acos(min(1, |n_est . n_gt|)) in degrees, and its mean, RMS, PGP5, PGP10 and the share over
+// 30 degrees (the badly wrong normals that RMS weighs). Points (denoising):
 // distance of each point to a densely sampled clean surface.
 #pragma once
 
@@ -18,6 +19,7 @@ struct AngleStats {
   double rms = 0;       ///< root mean square angle error, degrees
   double pgp5 = 0;      ///< share of points with error < 5 degrees, in [0, 1]
   double pgp10 = 0;     ///< share of points with error < 10 degrees, in [0, 1]
+  double over30 = 0;    ///< share of points with error > 30 degrees, in [0, 1]
   int64_t count = 0;    ///< points that entered the statistics
   int64_t invalid = 0;  ///< points skipped because an error was NaN (failed / invalid normal)
 };
