@@ -8,11 +8,13 @@
 #include "fixtures.hpp"
 #include "nhnet/learned/nhnet_model.hpp"
 #include "nhnet/pipeline/estimate.hpp"
+#include "pipeline/estimator.hpp"
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <random>
 #include <string>
@@ -124,4 +126,30 @@ TEST(RowOrder, NhNetNormalsOfAShuffledCloudAreTheCloudsOwn) {
   for (Eigen::Index i = 0; i < p.rows(); ++i)
     for (Eigen::Index c = 0; c < a.neighbours.cols(); ++c)
       ASSERT_EQ(perm[size_t(a.neighbours(i, c))], b.neighbours(perm[size_t(i)], c)) << i;
+}
+
+// The canonical points built on the input rows, renumbered for the permuted rows, are what
+// canonical_points builds on the permuted rows: the same points, tree and unit; rows and copies
+// in permuted rows, each exact copy's first its lowest permuted row; non-finite rows -1.
+TEST(RowOrder, PermutedPreparedIsTheCanonicalPointsOfThePermutedRows) {
+  Points p = shuffled_grid();
+  const Eigen::Index n = p.rows();
+  for (Eigen::Index i = 0; i < n; i += 7) p.row(i) = p.row((i * 13 + 5) % n);  // exact copies
+  p(3, 1) = std::numeric_limits<double>::quiet_NaN();
+  const detail::RowOrder o = row_order(p);
+  const Points q = permute_rows(p, o);
+  std::vector<std::string> w1, w2;
+  detail::Prepared prepared;
+  prepared.source = p.data();
+  prepared.canon = detail::canonical_points(p, w1);
+  detail::permute_prepared(prepared, o, q);
+  const detail::Canonical want = detail::canonical_points(q, w2);
+  EXPECT_EQ(prepared.source, q.data());
+  EXPECT_EQ(w1, w2);
+  EXPECT_EQ(prepared.canon.rows, want.rows);
+  EXPECT_EQ(prepared.canon.copies, want.copies);
+  EXPECT_EQ(prepared.canon.finite_count, want.finite_count);
+  EXPECT_EQ(prepared.canon.unit, want.unit);
+  ASSERT_EQ(prepared.canon.pts, want.pts);
+  EXPECT_LT(want.rows.size(), size_t(n) - 100);  // the copies were there to renumber
 }

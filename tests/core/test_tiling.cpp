@@ -176,3 +176,40 @@ TEST(Tiling, NhNetTilesEqualTheUntiledRun) {
   EXPECT_EQ(tiled.precision_used, "float32");
   EXPECT_LT(share_differing(tiled, whole, 1e-3), 0.005);
 }
+
+// The cell-mean decision (CellMeanOptions::min_points lowered to reach these clouds; their noise
+// ratio stays under its threshold, so the points themselves are estimated) builds the canonical
+// points, their tree and the probe; the estimate after it, tiled or in one piece, takes them over
+// instead of building them again. Same normals, bit for bit, as without the decision, for
+// MFPS's tiles, MFPS in one piece after the tiling's memory check, and NH-Net (its rows along a
+// Morton curve: the decision's canonical rows renumbered, row_order.hpp).
+TEST(Tiling, TheCellMeanDecisionsPreparedPointsServeTheEstimate) {
+  const auto f = fixtures::cube(30000, 0.004, 11);
+  const auto same = [&](EstimateOptions o, int64_t tile_points, int64_t memory) {
+    o.cell_means.noise_ratio = 0;  // no decision: the estimate builds its own
+    const EstimateResult own = run(f.points, o, tile_points, memory);
+    o.cell_means = CellMeanOptions{};
+    o.cell_means.min_points = 1000;
+    const EstimateResult taken = run(f.points, o, tile_points, memory);
+    ASSERT_LT(taken.noise_ratio, o.cell_means.noise_ratio);  // not averaged
+    EXPECT_EQ(taken.tiles, own.tiles);
+    expect_same_decisions(taken, own);
+    ASSERT_EQ(taken.valid, own.valid);
+    for (Eigen::Index i = 0; i < f.points.rows(); ++i)
+      if (own.valid[size_t(i)]) {
+        ASSERT_EQ(taken.normals.row(i), own.normals.row(i)) << i;
+      }
+    EXPECT_EQ(taken.warnings, own.warnings);
+  };
+  EstimateOptions o;
+  o.method = Method::Mfps;
+  same(o, 8000, 0);                               // tiles
+  same(o, 8000, EstimateOptions{}.tiles.memory);  // one piece after the memory check
+  same(o, 0, 0);                                  // untiled
+  ASSERT_TRUE(nhnet_available());
+  o.method = Method::NhNet;
+  o.model.path = std::string(NHNET_SOURCE_DIR) + "/tests/data/nhnet_tiny.pt";
+  o.model.device = "cpu";
+  same(o, 0, 0);
+  same(o, 8000, EstimateOptions{}.tiles.memory);
+}

@@ -199,6 +199,8 @@ bool through_cell_means(const Points& points, const EstimateOptions& options, Es
   const RunContext& run = options.run;
   prepared.tree = std::make_unique<Neighbors>(canon.pts);
   const Probe probe = probe_noise(canon.pts, *prepared.tree, narrow(run, 0, 0.04), nullptr);
+  prepared.probe = probe;
+  prepared.probed = true;
   measured.noise_ratio = probe.noise.ratio;
   measured.spacing = probe.noise.spacing * canon.unit;  // input units, as estimate_cloud takes
   if (probe.noise.ratio < cm.noise_ratio) return false;

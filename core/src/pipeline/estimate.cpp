@@ -650,7 +650,7 @@ namespace detail {
 
 EstimateResult estimate_points(const Points& points, const EstimateOptions& options,
                                const TileOverrides& overrides) {
-  if (wants_tiles(points, options)) return estimate_tiled(points, options);
+  if (wants_tiles(points, options)) return estimate_tiled(points, options, overrides.prepared);
   return estimate_cloud(points, options, overrides);
 }
 
@@ -661,13 +661,12 @@ EstimateResult estimate_normals_keeping_means(const Points& points, const Estima
   TileOverrides measured;
   Prepared prepared;
   if (through_cell_means(points, options, res, measured, prepared, keep)) return res;
-  // A tiled run builds its own canonical points per tile: the decision's must not stay in memory
-  // beside them (estimate_tiled ignores `measured`).
-  if (wants_tiles(points, options)) prepared = Prepared{};
   if (!(measured.spacing > 0)) return estimate_points(points, options, measured);
   EstimateOptions rest = options;  // the decision's probe reported the first 4 %
   rest.run = narrow(options.run, 0.04, 1);
-  measured.prepared = &prepared;  // its canonical points and tree serve the estimate in one piece
+  // Its canonical points, tree and probe serve the estimate (one piece or tiles) instead of
+  // being built again.
+  measured.prepared = &prepared;
   return estimate_points(points, rest, measured);
 }
 

@@ -135,22 +135,26 @@ double normalise(Points& pts);
 /// UnprocessableInput when fewer than 3 distinct finite points remain.
 Canonical canonical_points(const Points& points, std::vector<std::string>& warnings);
 
-/// What estimate_geometry would build first: the canonical points, canonical_points' warnings
-/// and the kd-tree over the points (TileOverrides::prepared), for the rows at `source` only
-/// (NH-Net's stage runs on its rows in another order, row_order.hpp, and builds its own).
-struct Prepared {
-  const double* source = nullptr;
-  Canonical canon;
-  std::vector<std::string> warnings;
-  std::unique_ptr<Neighbors> tree;
-};
-
 struct Probe {
   /// Noise ratio and spacing (units of the probed points).
   NoiseEstimate noise;
   /// 99th percentile of the distance to the far_k-th nearest point among the probed points.
   double far_radius = 0;
   int far_k = 0;
+};
+
+/// What estimate_geometry and estimate_tiled would build first: the canonical points,
+/// canonical_points' warnings, the kd-tree over the points (TileOverrides::prepared) and the
+/// noise probe over them, for the rows at `source` only (NH-Net's stage runs on its rows in
+/// another order and takes them over through permute_prepared, row_order.hpp).
+struct Prepared {
+  const double* source = nullptr;
+  Canonical canon;
+  std::vector<std::string> warnings;
+  std::unique_ptr<Neighbors> tree;
+  /// The probe of canon.pts over `tree`, when the step that built them ran it (`probed`).
+  Probe probe;
+  bool probed = false;
 };
 
 /// The noise probe of `pts` (M x 3, canonical order) over `tree` (built on pts): every point of
@@ -214,7 +218,10 @@ RangeCut split_range(const Points& pts, std::vector<int64_t>& order, int64_t beg
 int64_t untiled_bytes(int64_t m, int kneed, Method method);
 
 /// estimate_normals in spatial tiles with halos (tiling.cpp), or in one piece when that fits in
-/// TileOptions::memory.
-EstimateResult estimate_tiled(const Points& points, const EstimateOptions& options);
+/// TileOptions::memory. `prepared` (may be null): the canonical points, tree and probe of
+/// `points` when a step before built them (the cell-mean decision); else built here. Either
+/// way they serve the run in one piece, or the tiling (the tree then released).
+EstimateResult estimate_tiled(const Points& points, const EstimateOptions& options,
+                              Prepared* prepared);
 
 }  // namespace nhnet::detail

@@ -207,7 +207,10 @@ EstimateResult estimate_nhnet(const Points& points, const EstimateOptions& optio
                               const TileOverrides& overrides) {
   // The rows along a Morton curve (row_order.hpp): the same normals, read from nearby memory.
   const RowOrder order = row_order(points);
-  EstimateResult res = estimate_nhnet_rows(permute_rows(points, order), options, overrides);
+  const Points permuted = permute_rows(points, order);
+  if (overrides.prepared && overrides.prepared->source == points.data())
+    permute_prepared(*overrides.prepared, order, permuted);  // then not built again
+  EstimateResult res = estimate_nhnet_rows(permuted, options, overrides);
   restore_rows(res, order);
   return res;
 }

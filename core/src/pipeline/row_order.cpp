@@ -4,6 +4,7 @@
 #include "util/spatial_order.hpp"
 
 #include <algorithm>
+#include <limits>
 #include <numeric>
 #include <utility>
 
@@ -72,6 +73,28 @@ void restore_rows(EstimateResult& res, const RowOrder& o) {
       }
     restore_matrix_rows(res.neighbours, o.order);
   }
+}
+
+void permute_prepared(Prepared& prepared, const RowOrder& o, const Points& permuted) {
+  Canonical& c = prepared.canon;
+  const size_t n = o.order.size();
+  std::vector<int64_t> at(n);  // input row -> permuted row
+  for (size_t i = 0; i < n; ++i) at[size_t(o.order[i])] = int64_t(i);
+  // Per first copy (input row): the lowest permuted row of its copies.
+  std::vector<int64_t> lowest(n, std::numeric_limits<int64_t>::max());
+  for (size_t r = 0; r < n; ++r)
+    if (c.copies[r] >= 0) {
+      int64_t& l = lowest[size_t(c.copies[r])];
+      l = std::min(l, at[r]);
+    }
+  for (int64_t& row : c.rows) row = lowest[size_t(row)];
+  std::vector<int64_t> copies(n, -1);
+  for (size_t i = 0; i < n; ++i) {
+    const int64_t first = c.copies[size_t(o.order[i])];
+    if (first >= 0) copies[i] = lowest[size_t(first)];
+  }
+  c.copies = std::move(copies);
+  prepared.source = permuted.data();
 }
 
 }  // namespace nhnet::detail

@@ -7,6 +7,7 @@
 #pragma once
 
 #include "nhnet/pipeline/estimate.hpp"
+#include "pipeline/estimator.hpp"
 
 #include <cstdint>
 #include <vector>
@@ -27,5 +28,11 @@ Points permute_rows(const Points& points, const RowOrder& o);
 /// A result computed on permute_rows(points, o) back in input rows: every per-point output and
 /// every row index it holds (neighbour table, MFPS blend rows).
 void restore_rows(EstimateResult& res, const RowOrder& o);
+
+/// `prepared` (built on the input rows) made what it would have been built on `permuted`
+/// (= permute_rows(points, o)): the canonical points, tree and probe do not depend on the row
+/// order (neighbors/dedupe.hpp); the canonical rows and copies are renumbered, every exact
+/// copy's first being its lowest permuted row, as canonical_points gives.
+void permute_prepared(Prepared& prepared, const RowOrder& o, const Points& permuted);
 
 }  // namespace nhnet::detail

@@ -215,11 +215,24 @@ void merge_tile(const EstimateResult& tr, const std::vector<int64_t>& rows, int3
 /// The untiled estimate after the tiling's probe (whose noise and spacing it takes, in input
 /// units: the same sizes as its own probe would choose).
 EstimateResult in_one_piece(const Points& points, const EstimateOptions& options, TileOverrides ov,
-                            double unit) {
-  ov.spacing *= unit;
+                            Prepared& prepared) {
+  ov.spacing *= prepared.canon.unit;
+  ov.prepared = &prepared;  // its canonical points and tree serve the run
   EstimateOptions o = options;
   o.run = narrow(options.run, 0.04, 1.0);
   return estimate_cloud(points, o, ov);
+}
+
+/// `prepared` for `points` as a step before left it, or built here: the canonical points, their
+/// tree and the whole cloud's probe (the untiled run's: same canonical points, same frame).
+Prepared& prepare(const Points& points, Prepared* given, Prepared& own, const RunContext& run) {
+  if (given && given->source == points.data() && given->probed && given->tree) return *given;
+  own.source = points.data();
+  own.canon = canonical_points(points, own.warnings);
+  own.tree = std::make_unique<Neighbors>(own.canon.pts);
+  own.probe = probe_noise(own.canon.pts, *own.tree, narrow(run, 0.01, 0.04), nullptr);
+  own.probed = true;
+  return own;
 }
 
 // untiled_bytes() per point: a fixed part and a part per column of the deepest neighbour table
@@ -240,19 +253,19 @@ int64_t untiled_bytes(int64_t m, int kneed, Method method) {
   return int64_t(double(m) * (b.fixed + b.per_column * double(kneed)));
 }
 
-EstimateResult estimate_tiled(const Points& points, const EstimateOptions& options) {
+EstimateResult estimate_tiled(const Points& points, const EstimateOptions& options,
+                              Prepared* prepared) {
   start_threads(options.run.threads);
   const RunContext& run = options.run;
   Progress top(run.progress);
   if (run.progress) top.stage("tiling", 0, 0.01);
-  std::vector<std::string> warnings;
-  Canonical canon = canonical_points(points, warnings);
+  Prepared own;
+  Prepared& prep = prepare(points, prepared, own, run);
+  const Canonical& canon = prep.canon;
   const Points& pts = canon.pts;
-
-  // The whole cloud's noise probe: the untiled run's (same canonical points, same frame).
   const bool need_probe =
       options.k == 0 || (options.method != Method::Pca && options.mfps.scales.empty());
-  const Probe probe = probe_noise(pts, Neighbors(pts), narrow(run, 0.01, 0.04), nullptr);
+  const Probe probe = prep.probe;
   top.throw_if_cancelled();
   const TileSizes sizes = tile_sizes(probe, options, int64_t(pts.rows()));
   TileOverrides ov;
@@ -263,13 +276,11 @@ EstimateResult estimate_tiled(const Points& points, const EstimateOptions& optio
   // In one piece the table returned for the orientation (EstimateOptions::neighbours) counts too.
   const int kbytes = sizes.kneed + std::max(0, options.neighbours);
   if (options.tiles.memory > 0 &&
-      untiled_bytes(int64_t(pts.rows()), kbytes, options.method) <= options.tiles.memory) {
-    const double unit = canon.unit;
-    canon = Canonical{};  // the untiled run makes its own
-    return in_one_piece(points, options, ov, unit);
-  }
+      untiled_bytes(int64_t(pts.rows()), kbytes, options.method) <= options.tiles.memory)
+    return in_one_piece(points, options, ov, prep);
+  prep.tree.reset();  // each tile builds its own
   EstimateResult res = empty_result(points.rows());
-  res.warnings = std::move(warnings);
+  res.warnings = std::move(prep.warnings);
   if (options.method != Method::Pca) res.candidate.assign(size_t(points.rows()), 0);
   const double halo = sizes.estimate_halo(options);
   const Tiles tiles = cut_tiles(pts, options.tiles.points);
