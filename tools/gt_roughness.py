@@ -34,14 +34,12 @@ RADII = (1.0, 2.0)       # in point spacings (median distance to the nearest oth
 BAR = 0.8                # issue 23: RMS at least 20 % below PCL's best K
 
 
-def floor_angles(points: np.ndarray, normals: np.ndarray, dense_p: np.ndarray,
-                 dense_n: np.ndarray, radius: float) -> np.ndarray:
-    """Per point: degrees between its normal and the mean of the dense normals within radius
-    that face its side (0 where none does)."""
-    from scipy.spatial import cKDTree
-
+def floor_angles(points: np.ndarray, normals: np.ndarray, dense_tree, dense_n: np.ndarray,
+                 radius: float) -> np.ndarray:
+    """Per point: degrees between its normal and the mean of the dense normals (their points in
+    the kd-tree dense_tree) within radius that face its side (0 where none does)."""
     out = np.zeros(len(points))
-    for i, idx in enumerate(cKDTree(dense_p).query_ball_point(points, r=radius)):
+    for i, idx in enumerate(dense_tree.query_ball_point(points, r=radius)):
         near = dense_n[idx]
         near = near[near @ normals[i] > 0]
         if len(near) == 0:
@@ -63,11 +61,12 @@ def cloud_floors(points: np.ndarray, normals: np.ndarray, mesh, seed: int = 7,
                  dense: int = DENSE_SAMPLES) -> dict:
     """RMS floor of one clean cloud at every radius of RADII, from its mesh (vertices, faces)."""
     from nhnet_training.datagen import sample_surface
+    from scipy.spatial import cKDTree
 
     dense_p, dense_n, _ = sample_surface(mesh[0], mesh[1], dense, np.random.default_rng(seed))
-    s = spacing(points)
+    tree, s = cKDTree(dense_p), spacing(points)  # one tree for every radius
     return {f"floor_{r:g}": float(np.sqrt(np.mean(
-        floor_angles(points, normals, dense_p, dense_n, r * s) ** 2))) for r in RADII}
+        floor_angles(points, normals, tree, dense_n, r * s) ** 2))) for r in RADII}
 
 
 def cmd_floors(args) -> None:
@@ -117,8 +116,8 @@ def scale_needed(nh: np.ndarray, floor: np.ndarray, target: float) -> float:
 
 
 def cmd_report(args) -> None:
-    floors = {json.loads(line)["cloud"]: json.loads(line)
-              for line in open(args.floors) if line.strip()}
+    floors = {r["cloud"]: r for r in (json.loads(line) for line in open(args.floors)
+                                      if line.strip())}
     records = [json.loads(line) for line in open(args.records) if line.strip()]
     fkey = f"floor_{args.radius:g}"
     print(f"| category | clouds | floor (R = {args.radius:g} spacing) | NH-Net RMS / rest | "
