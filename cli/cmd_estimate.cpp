@@ -26,7 +26,6 @@
 #include <filesystem>
 #include <iostream>
 #include <memory>
-#include <type_traits>
 
 namespace nhcli {
 
@@ -88,7 +87,7 @@ EstimateSummary summary_of(const Setup& st, const Outcome& o, const Result& res)
   s.spacing = res.spacing;
   s.candidates = res.candidates;
   s.tiles = res.tiles;
-  if constexpr (std::is_same_v<Result, nhnet::EstimateResult>) s.cell_means = res.cell_means;
+  s.cell_means = res.cell_means;
   s.seconds = o.seconds;
   return s;
 }

@@ -102,7 +102,8 @@ void add_stream_orient_options(CLI::App* sub, EstimateArgs& a) {
   sub->add_flag("--stream", a.stream,
                 "Out of core, for clouds larger than memory: read the XYZ text input in passes "
                 "and process it tile by tile (--tile-points) through temporary files; same "
-                "normals as in memory; output .ply or .xyz/.xyzn (x y z nx ny nz); orientation "
+                "normals as in memory (as accurate, not equal, through --cell-means); output .ply "
+                "or .xyz/.xyzn (x y z nx ny nz); orientation "
                 "auto (keep when the input has normals, else none), keep or viewpoint");
   sub->add_option("--temp-dir", a.temp_dir,
                   "--stream: folder for the temporary tile files, ~48 bytes per point (default: "

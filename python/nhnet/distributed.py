@@ -71,6 +71,10 @@ def _parse(argv):
     e.add_argument("--precision", choices=nhnet.PRECISIONS,
                    help="NH-Net arithmetic, as nhnet-cli --precision (default: the core's, "
                    f"{nhnet.PRECISIONS[0]})")
+    e.add_argument("--cell-means", type=_cell_means, default=None, metavar="auto|off|RATIO",
+                   help="as nhnet-cli: dense clouds whose noise exceeds their spacing are "
+                   "estimated on local means of their points (auto: the core's noise ratio), "
+                   "from another noise ratio, or never (off)")
     e.add_argument("--orient", nargs="+", default=["auto"], metavar="MODE",
                    help="auto (default, as nhnet-cli: from the input's header), keep, up, "
                    "mst[:K], viewpoint X Y Z, sensors or none")
@@ -83,6 +87,21 @@ def _parse(argv):
                    help="bytes of a single-file input per read / write task (default 32 MiB)")
     e.add_argument("--quiet", action="store_true", help="no progress bars")
     return ap.parse_args(argv)
+
+
+def _cell_means(text):
+    """--cell-means: None for auto (the core's ratio), 0.0 for off, else a ratio > 0."""
+    if text == "auto":
+        return None
+    if text == "off":
+        return 0.0
+    try:
+        ratio = float(text)
+    except ValueError:
+        ratio = -1.0
+    if not ratio > 0:
+        raise argparse.ArgumentTypeError(f"must be auto, off or a noise ratio > 0, got {text!r}")
+    return ratio
 
 
 def _orient(words):
@@ -144,7 +163,8 @@ class Job:
         self.options = {"method": method, "k": args.k, "seed": args.seed,
                         "scales": [int(s) for s in args.scales.split(",")] if args.scales else None,
                         "threads": args.threads, "halo": args.halo, "model": args.model,
-                        "device": args.device, "precision": args.precision}
+                        "device": args.device, "precision": args.precision,
+                        "cell_means": args.cell_means}
 
     def _wait(self, futures, what, gather=True):
         """Waits for `futures` with a progress bar; their results when `gather` (small ones
@@ -249,6 +269,7 @@ class Job:
         dec = self._decisions(boxes, counts, cells, lay["finite"])
         self.log(f"noise ratio {dec['noise_ratio']:.3g}, k {dec['k_smooth']}"
                  + (f", scales {dec['scales']}" if self.a.method != "pca" else "")
+                 + (", through cell means" if dec["cell_means"] else "")
                  + (f", threshold {dec['variation_threshold']:.4g}"
                     if dec["variation_threshold"] >= 0 else ""))
         orient = dict(self.orient, centre=lay["frame"]["centre"], scale=lay["frame"]["scale"])
@@ -266,7 +287,9 @@ class Job:
         self.log(f"orientation: {orient['mode']} ({orient['source']})")
         self.log(f"{int(rows0[-1])} points, {failed} without a normal, "
                  f"{sum(r['candidates'] for r in results)} candidates, "
-                 f"{time.time() - t0:.1f} s")
+                 + (f"{sum(r['cell_means'] for r in results)} cell means, "
+                    if dec["cell_means"] else "")
+                 + f"{time.time() - t0:.1f} s")
         for w in sorted({w for r in results for w in r["warnings"]
                          if "degenerate" not in w and "duplicate" not in w}):
             self.log(f"warning: {w}")
@@ -285,7 +308,7 @@ class Job:
                          key=f"{self.token}-probe-{t}") for t in tiles]
         self._wait(fine, "noise probe", gather=False)
         dec = c.submit(tasks.decide, fine, self.options, finite).result()
-        if a.method != "pca":
+        if a.method != "pca" and not dec["cell_means"]:  # the means choose their own
             step = nh._variation_step(finite, 20_000_000)
             parts = [c.submit(tasks.variation, t, boxes, dec, step, self.scratch, a.threads,
                               key=f"{self.token}-variation-{t}") for t in sorted(boxes)]

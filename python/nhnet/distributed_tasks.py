@@ -156,10 +156,11 @@ def estimate(t, boxes, decisions, options, orient, chunk_rows, scratch):
     own distinct valid points' nearest distances (saved) and their box."""
     nh = _core()
     pts, rows, owner, own = load_tile(t, boxes, decisions["halo"], scratch)
-    normals, valid, cand, warnings, k_used, scales_used = nh._estimate_tile(pts, options, decisions)
+    normals, valid, cand, warnings, k_used, scales_used, means = nh._estimate_tile(
+        pts, options, decisions)
     base = {"tile": t, "own": own, "failed": int(own - valid[:own].sum()),
             "candidates": int(cand[:own].sum()) if len(cand) else 0, "warnings": warnings,
-            "k_used": k_used, "scales_used": list(scales_used)}
+            "k_used": k_used, "scales_used": list(scales_used), "cell_means": means}
     if orient["mode"] == "mst":  # the MST's guides, fitted once for the leak counts and the MST
         gp, gg, near, row_guides = nh._mst_guides(pts, normals, own, orient["k"],
                                                   options["threads"])

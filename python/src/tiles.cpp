@@ -93,10 +93,12 @@ const auto kDecisionFields = std::make_tuple(
     field("far_radius", &TileDecisions::far_radius), field("far_k", &TileDecisions::far_k),
     field("k_smooth", &TileDecisions::k_smooth), field("scales", &TileDecisions::scales),
     field("halo", &TileDecisions::halo), field("variation_halo", &TileDecisions::variation_halo),
-    field("variation_threshold", &TileDecisions::variation_threshold));
+    field("variation_threshold", &TileDecisions::variation_threshold),
+    field("cell_means", &TileDecisions::cell_means));
 
 /// The estimator's options from the job's (a dict: method, k, scales, seed, threads, halo, model,
-/// device, and optionally precision: None or absent = the core's).
+/// device, and optionally precision and cell_means (a noise ratio, 0 = off): None or absent =
+/// the core's).
 EstimateOptions options_from_dict(const py::dict& d) {
   EstimateOptions o;
   o.method = method_from_string(d["method"].cast<std::string>());
@@ -109,6 +111,8 @@ EstimateOptions options_from_dict(const py::dict& d) {
   o.model.device = d["device"].cast<std::string>();
   if (d.contains("precision") && !d["precision"].is_none())
     o.model.precision = d["precision"].cast<std::string>();
+  if (d.contains("cell_means") && !d["cell_means"].is_none())
+    o.cell_means.noise_ratio = d["cell_means"].cast<double>();
   return o;
 }
 
@@ -129,7 +133,7 @@ py::tuple estimate(const py::handle& points, const py::dict& options, const py::
     r = estimate_tile(pts, o, d);
   }
   return py::make_tuple(to_numpy(r.normals), to_numpy_mask(r.valid), to_numpy(r.candidate),
-                        r.warnings, r.k_used, r.scales_used);
+                        r.warnings, r.k_used, r.scales_used, r.cell_means);
 }
 
 }  // namespace
@@ -290,7 +294,7 @@ void register_tiles(py::module_& m) {
       py::arg("inside_outside"), py::arg("guides") = py::none());
   m.def("_estimate_tile", &estimate,
         "One tile (own points then halo, frame units) with the whole cloud's decisions: "
-        "(normals, valid, candidate, warnings, k_used, scales_used).");
+        "(normals, valid, candidate, warnings, k_used, scales_used, cell_means).");
 }
 
 }  // namespace nhnet::python

@@ -185,27 +185,21 @@ OrientResult orient_through_means(MeansRun& run, EstimateResult& res, const Orie
   return r;
 }
 
-bool through_cell_means(const Points& points, const EstimateOptions& options, EstimateResult& out,
-                        TileOverrides& measured, Prepared& prepared, MeansRun* keep) {
+bool cell_means_apply(const EstimateOptions& options, int64_t finite) {
   const CellMeanOptions& cm = options.cell_means;
-  if (!(cm.noise_ratio > 0) || options.k != 0 || !options.mfps.scales.empty() ||
-      points.rows() < cm.min_points)
-    return false;
-  start_threads(options.run.threads);
-  prepared.source = points.data();
-  prepared.canon = canonical_points(points, prepared.warnings);
-  const Canonical& canon = prepared.canon;
-  if (int64_t(canon.finite_count) < cm.min_points) return false;
-  const RunContext& run = options.run;
-  prepared.tree = std::make_unique<Neighbors>(canon.pts);
-  const Probe probe = probe_noise(canon.pts, *prepared.tree, narrow(run, 0, 0.04), nullptr);
-  prepared.probe = probe;
-  prepared.probed = true;
-  measured.noise_ratio = probe.noise.ratio;
-  measured.spacing = probe.noise.spacing * canon.unit;  // input units, as estimate_cloud takes
-  if (probe.noise.ratio < cm.noise_ratio) return false;
+  return cm.noise_ratio > 0 && options.k == 0 && options.mfps.scales.empty() &&
+         finite >= cm.min_points;
+}
 
-  const double edge = cm.edge * probe.noise.ratio * probe.noise.spacing;
+namespace {
+
+/// Steps 2-4 on the canonical points of `prepared` (tree built, the noise measured: `ratio` and
+/// `spacing` in canonical units); false when the cubes give fewer than 3 means.
+bool estimate_means(const Points& points, Prepared& prepared, double ratio, double spacing,
+                    const EstimateOptions& options, EstimateResult& out, MeansRun* keep) {
+  const Canonical& canon = prepared.canon;
+  const RunContext& run = options.run;
+  const double edge = options.cell_means.edge * ratio * spacing;
   const std::vector<int64_t> centres = one_per_cell(canon.pts, edge);
   if (centres.size() < 3) return false;
   Points means = ball_means(canon.pts, *prepared.tree, centres, edge, narrow(run, 0.04, 0.06));
@@ -220,13 +214,42 @@ bool through_cell_means(const Points& points, const EstimateOptions& options, Es
   const NearestMeans nearest = nearest_means(canon.pts, means, narrow(run, 0.95, 1));
   if (keep) keep_means(canon, nearest, of_means, std::move(means), *keep);
   out = from_means(points, canon, nearest, std::move(of_means));
-  out.noise_ratio = probe.noise.ratio;
-  out.spacing = measured.spacing;
+  out.noise_ratio = ratio;
+  out.spacing = spacing * canon.unit;  // input units
   out.warnings = std::move(warnings);
   finish_result(out, canon.copies, canon.finite_count);
   if (!out.candidate.empty())
     for (const int64_t row : canon.rows) out.candidates += out.candidate[size_t(row)];
   return true;
+}
+
+}  // namespace
+
+bool through_cell_means(const Points& points, const EstimateOptions& options, EstimateResult& out,
+                        TileOverrides& measured, Prepared& prepared, MeansRun* keep) {
+  if (!cell_means_apply(options, points.rows())) return false;
+  start_threads(options.run.threads);
+  // Built for the estimate either way: it takes them over when the means do not apply.
+  prepare_points(points, prepared, narrow(options.run, 0, 0.04));
+  const Canonical& canon = prepared.canon;
+  const Probe& probe = prepared.probe;
+  measured.noise_ratio = probe.noise.ratio;
+  measured.spacing = probe.noise.spacing * canon.unit;  // input units, as estimate_cloud takes
+  if (!cell_means_apply(options, int64_t(canon.finite_count)) ||
+      probe.noise.ratio < options.cell_means.noise_ratio)
+    return false;
+  return estimate_means(points, prepared, probe.noise.ratio, probe.noise.spacing, options, out,
+                        keep);
+}
+
+bool tile_through_cell_means(const Points& points, const EstimateOptions& options,
+                             double noise_ratio, double spacing, EstimateResult& out) {
+  start_threads(options.run.threads);
+  Prepared prepared;  // no probe: the whole cloud's noise is given
+  prepared.canon = canonical_points(points, prepared.warnings);
+  prepared.tree = std::make_unique<Neighbors>(prepared.canon.pts);
+  return estimate_means(points, prepared, noise_ratio, spacing / prepared.canon.unit, options, out,
+                        nullptr);
 }
 
 }  // namespace nhnet::detail

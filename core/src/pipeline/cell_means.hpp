@@ -24,6 +24,10 @@ struct MeansRun {
   double unit = 1;
 };
 
+/// Whether options.cell_means may apply to a cloud of `finite` points (on, automatic sizes,
+/// enough points); it does when the cloud's noise ratio is at least its threshold too.
+bool cell_means_apply(const EstimateOptions& options, int64_t finite);
+
 /// When options.cell_means applies to `points` (automatic sizes, enough finite points, noise
 /// ratio at least its threshold): estimates them through cell means into `out` and returns true.
 /// Otherwise returns false and, when it probed the noise, leaves the cloud's noise ratio and
@@ -32,6 +36,13 @@ struct MeansRun {
 /// mean are moved there.
 bool through_cell_means(const Points& points, const EstimateOptions& options, EstimateResult& out,
                         TileOverrides& measured, Prepared& prepared, MeansRun* keep = nullptr);
+
+/// A streamed or distributed tile (tiles.hpp: own points, then halo) through cell means with the
+/// whole cloud's noise ratio and spacing (units of `points`): the means of the tile's cubes and
+/// their estimate (their own probe: the tile's means, not the cloud's), each point from its
+/// nearest means. False (nothing written) when the tile gives fewer than 3 means.
+bool tile_through_cell_means(const Points& points, const EstimateOptions& options,
+                             double noise_ratio, double spacing, EstimateResult& out);
 
 /// estimate_normals, keeping the means in `keep` (when given) when it ran through them.
 EstimateResult estimate_normals_keeping_means(const Points& points, const EstimateOptions& options,

@@ -192,6 +192,14 @@ Canonical canonical_points(const Points& points, std::vector<std::string>& warni
   return c;
 }
 
+void prepare_points(const Points& points, Prepared& prepared, const RunContext& run) {
+  prepared.source = points.data();
+  prepared.canon = canonical_points(points, prepared.warnings);
+  prepared.tree = std::make_unique<Neighbors>(prepared.canon.pts);
+  prepared.probe = probe_noise(prepared.canon.pts, *prepared.tree, run, nullptr);
+  prepared.probed = true;
+}
+
 namespace {
 
 /// Calls copy(i, first) for every row i of `copies` (Canonical::copies) that duplicates an

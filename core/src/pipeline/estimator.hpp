@@ -157,6 +157,10 @@ struct Prepared {
   bool probed = false;
 };
 
+/// Builds `prepared` for `points`: their canonical points, kd-tree and noise probe (`run`: the
+/// probe's progress), what a step before the estimate leaves it (the cell-mean decision's).
+void prepare_points(const Points& points, Prepared& prepared, const RunContext& run);
+
 /// The noise probe of `pts` (M x 3, canonical order) over `tree` (built on pts): every point of
 /// clouds up to kProbeAllPoints (then `table`, when given, receives the M x 75 probe table),
 /// an evenly spaced subset of larger ones.

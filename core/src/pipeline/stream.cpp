@@ -466,6 +466,7 @@ void estimate_tiles(const TileRun& tr, TileSetup setup, StreamResult& res) {
     o.run = detail::narrow(tr.run, begin + span * double(t), begin + span * double(t + 1));
     const EstimateResult est = estimate_tile(tp.pts, o, setup.decisions);
     degenerate += write_tile_result(tr.tiles.result_file(t), tp.own, est, res);
+    res.cell_means += est.cell_means;
     if (first_tile) {
       res.k_used = est.k_used;
       res.scales_used = est.scales_used;
@@ -660,7 +661,7 @@ StreamResult estimate_stream(const std::string& input, const std::string& output
   // The whole cloud's decisions, then each tile's normals to its result file.
   const TileRun tr{input, frame, plan, tiles, eo.run, top};
   TileSetup setup = tile_setup(eo, noise_probe(tr, eo, scan.finite));
-  if (eo.method != Method::Pca)
+  if (eo.method != Method::Pca && !setup.decisions.cell_means)
     setup.decisions.variation_threshold =
         tiles_variation_threshold(tr, options, setup.decisions, scan.finite);
   const TileDecisions decisions = setup.decisions;

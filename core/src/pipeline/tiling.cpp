@@ -227,11 +227,7 @@ EstimateResult in_one_piece(const Points& points, const EstimateOptions& options
 /// tree and the whole cloud's probe (the untiled run's: same canonical points, same frame).
 Prepared& prepare(const Points& points, Prepared* given, Prepared& own, const RunContext& run) {
   if (given && given->source == points.data() && given->probed && given->tree) return *given;
-  own.source = points.data();
-  own.canon = canonical_points(points, own.warnings);
-  own.tree = std::make_unique<Neighbors>(own.canon.pts);
-  own.probe = probe_noise(own.canon.pts, *own.tree, narrow(run, 0.01, 0.04), nullptr);
-  own.probed = true;
+  prepare_points(points, own, narrow(run, 0.01, 0.04));
   return own;
 }
 

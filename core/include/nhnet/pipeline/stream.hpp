@@ -52,6 +52,9 @@ struct StreamResult {
   double spacing = 0;
   std::string device_used;
   std::string precision_used;  ///< NH-Net only: as EstimateResult::precision_used
+  /// Cell means the tiles were estimated through, summed over the tiles (a mean near a tile's
+  /// border counts in each tile whose halo holds it); 0 when the cloud went through its points.
+  int64_t cell_means = 0;
   /// Orientation used (Keep falls back to None when the input has no normals) and its counts
   /// (flipped / unoriented / invalid), summed over the written chunks.
   OrientMode orient_mode = OrientMode::None;

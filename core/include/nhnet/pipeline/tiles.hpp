@@ -82,6 +82,10 @@ struct TileDecisions {
   double variation_halo = 0;
   /// MFPS's candidate threshold (set_variation_threshold); < 0 = not chosen yet.
   double variation_threshold = -1;
+  /// Every tile goes through cell means (CellMeanOptions: the cloud's noise ratio reaches its
+  /// threshold): the halo then covers the means' largest neighbourhood, and no candidate
+  /// threshold is needed (each tile's means choose their own).
+  bool cell_means = false;
 };
 
 /// The whole cloud's decisions from the probe rows of every tile (rows with fewer columns than
@@ -102,7 +106,9 @@ int64_t variation_step(int64_t finite, int64_t sample);
 double variation_threshold(const Eigen::VectorXd& variation);
 
 /// One tile (frame units: own points then halo) through the estimator with the whole cloud's
-/// decisions; rows of the result match `pts`. Options are checked here.
+/// decisions (through its cell means when decisions.cell_means: the means' own sizes, measured
+/// in the tile, so a point's normal depends a little on its tile there); rows of the result
+/// match `pts`. Options are checked here.
 EstimateResult estimate_tile(const Points& pts, const EstimateOptions& options,
                              const TileDecisions& decisions);
 
