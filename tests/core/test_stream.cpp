@@ -109,18 +109,16 @@ TEST_F(Stream, MfpsEqualsTheInMemoryRun) {
 }
 
 // A cloud whose noise reaches the cell means' threshold goes through them in the streamed tiles
-// too (the in-memory run did, the stream did not: 4-5x the time on dense noisy clouds). Each
-// tile places its own cubes and measures its own means' sizes (tiles.hpp), so the normals are
-// not the in-memory run's (62 % of them over 1 degree apart here: other cubes, other means)
-// but as accurate: RMS and mean error against the truth within 0.1 degrees of the in-memory
-// run's (3 % of its 3.2 degrees; measured: +0.016 and +0.006). A halo of one radius: the
-// default's would give every tile of this small sphere the whole sphere.
+// too (the in-memory run did, the stream did not: 3.4x the time on 3M noisy fandisk points).
+// Each tile places its own cubes and measures its own means' sizes (tiles.hpp), so the normals
+// are not the in-memory run's (most move by over 1 degree: other cubes, other means) but as
+// accurate: RMS and mean error against the truth within 0.15 degrees of the in-memory run's
+// (5 % of its 3.2 degrees; measured: +0.08 and +0.06, the spread of another cube placement).
 TEST_F(Stream, NoisyDenseCloudThroughCellMeansAsAccurateAsInMemory) {
   fixtures::Fixture f = fixtures::sphere(40000, 7);
   f.points = fixtures::with_noise(f.points, 0.025, 8);
   const std::string in = write_xyz("sphere.xyz", f.points);
   StreamOptions so = options(Method::Mfps, 12000);
-  so.estimate.tiles.halo = 1;
   so.estimate.cell_means.min_points = 1000;  // as test_cell_means.cpp: a small cloud
   so.estimate.cell_means.noise_ratio = 1.0;
   EstimateOptions eo = so.estimate;
@@ -135,8 +133,8 @@ TEST_F(Stream, NoisyDenseCloudThroughCellMeansAsAccurateAsInMemory) {
   const Cloud out = read_cloud(path("out.xyzn"));
   const AngleStats a = angle_stats(out.normals, f.normals);
   const AngleStats b = angle_stats(whole.normals, f.normals);
-  EXPECT_NEAR(a.rms, b.rms, 0.1);
-  EXPECT_NEAR(a.mean, b.mean, 0.1);
+  EXPECT_NEAR(a.rms, b.rms, 0.15);
+  EXPECT_NEAR(a.mean, b.mean, 0.15);
 
   so.estimate.cell_means.noise_ratio = 0;  // off: the points themselves, as before
   EXPECT_EQ(estimate_stream(in, path("off.xyzn"), so).cell_means, 0);

@@ -192,6 +192,10 @@ struct TileSizes {
 };
 TileSizes tile_sizes(const Probe& probe, const EstimateOptions& options, int64_t m);
 
+/// Halo radii for a stage whose values depend on one neighbourhood (and its neighbours') only,
+/// from TileOptions::halo: halo - 2, at least a third of halo.
+double one_radius_halo(double halo);
+
 /// Surface variation (pca.hpp) of every row of `pts` at k neighbours: the tiled runs' first
 /// pass, tile by tile (tiling.cpp, tiles.cpp's tile_variation).
 Eigen::VectorXd surface_variation(const Points& pts, int k, const RunContext& run);

@@ -65,11 +65,12 @@ namespace {
 /// four: they take the whole halo. A PCA normal depends on its own neighbourhood only: one radius
 /// plus the margin NH-Net keeps over its three, halo - 2 (at least a third of halo).
 double halo_radii(double halo, Method method) {
-  if (method != Method::Pca) return halo;
-  return std::max(halo - 2.0, halo / 3.0);
+  return method == Method::Pca ? one_radius_halo(halo) : halo;
 }
 
 }  // namespace
+
+double one_radius_halo(double halo) { return std::max(halo - 2.0, halo / 3.0); }
 
 double TileSizes::estimate_halo(const EstimateOptions& options) const {
   return halo_radii(options.tiles.halo, options.method) * radius(kneed);
