@@ -154,13 +154,10 @@ void check_paths(const EstimateArgs& a) {
 
 /// --cell-means: auto (the core's ratio), off (0) or the noise ratio from which (a number > 0).
 double parse_cell_means(const std::string& text) {
-  if (text == "auto") return nhnet::EstimateOptions{}.cell_means.noise_ratio;
-  if (text == "off") return 0;
   try {
-    return parse_double("--cell-means", text, 0);
-  } catch (const nhnet::InvalidOptions&) {
-    throw nhnet::InvalidOptions("--cell-means must be auto, off or a noise ratio > 0, got '" +
-                                one_line(text) + "'");
+    return nhnet::cell_means_from_string(text);
+  } catch (const nhnet::InvalidOptions& e) {
+    throw nhnet::InvalidOptions(std::string("--cell-means ") + e.what());
   }
 }
 

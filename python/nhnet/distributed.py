@@ -71,7 +71,7 @@ def _parse(argv):
     e.add_argument("--precision", choices=nhnet.PRECISIONS,
                    help="NH-Net arithmetic, as nhnet-cli --precision (default: the core's, "
                    f"{nhnet.PRECISIONS[0]})")
-    e.add_argument("--cell-means", type=_cell_means, default=None, metavar="auto|off|RATIO",
+    e.add_argument("--cell-means", type=_cell_means, default="auto", metavar="auto|off|RATIO",
                    help="as nhnet-cli: dense clouds whose noise exceeds their spacing are "
                    "estimated on local means of their points (auto: the core's noise ratio), "
                    "from another noise ratio, or never (off)")
@@ -90,18 +90,11 @@ def _parse(argv):
 
 
 def _cell_means(text):
-    """--cell-means: None for auto (the core's ratio), 0.0 for off, else a ratio > 0."""
-    if text == "auto":
-        return None
-    if text == "off":
-        return 0.0
+    """--cell-means: the noise ratio from which (the core's parser: auto, off = 0, or a ratio)."""
     try:
-        ratio = float(text)
-    except ValueError:
-        ratio = -1.0
-    if not ratio > 0:
-        raise argparse.ArgumentTypeError(f"must be auto, off or a noise ratio > 0, got {text!r}")
-    return ratio
+        return tasks._core()._cell_means_ratio(text)
+    except nhnet.InvalidOptions as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
 
 
 def _orient(words):

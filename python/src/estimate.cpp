@@ -28,17 +28,20 @@ struct PyEstimateResult {
   std::string orient_mode, orient_source;  ///< the orientation applied and why
 };
 
-/// cell_means=: True (the core's ratio), False (0) or the noise ratio from which (a number > 0).
+/// cell_means=: True (the core's ratio), False (0), the noise ratio from which (a number > 0) or
+/// nhnet-cli's text ("auto", "off", "1.2").
 double cell_means_ratio(const py::object& value) {
+  std::string text;
   if (py::isinstance<py::bool_>(value))
-    return value.cast<bool>() ? EstimateOptions{}.cell_means.noise_ratio : 0.0;
-  const double ratio = py::isinstance<py::float_>(value) || py::isinstance<py::int_>(value)
-                           ? value.cast<double>()
-                           : std::nan("");
-  if (!std::isfinite(ratio) || ratio <= 0)
-    throw InvalidOptions("cell_means must be True, False or a noise ratio > 0, got " +
-                         std::string(py::str(value)));
-  return ratio;
+    text = value.cast<bool>() ? "auto" : "off";
+  else if (py::isinstance<py::str>(value) || py::isinstance<py::float_>(value) ||
+           py::isinstance<py::int_>(value))
+    text = std::string(py::str(value));
+  try {
+    return cell_means_from_string(text);
+  } catch (const InvalidOptions& e) {
+    throw InvalidOptions(std::string("cell_means ") + e.what() + " (or True / False)");
+  }
 }
 
 PyEstimateResult estimate(const py::handle& points, const std::optional<std::string>& method, int k,
@@ -139,12 +142,13 @@ precision : {'auto', 'float32', 'bfloat16'} (nhnet.PRECISIONS, the default first
 learned_fit : bool
     NH-Net only (nhnet-cli --learned-fit): refit each normal of the candidate mix by the learned
     weighted jet fit (default True); False keeps the mix's normals.
-cell_means : bool or float
+cell_means : bool, float or str
     nhnet-cli --cell-means: True (default) estimates a dense cloud whose noise exceeds its
     spacing (noise ratio >= 1.12, at least 200 000 points, automatic sizes) on local means of its
     points, each point taking its three nearest means' normals: several times faster there, as
     accurate or more; a number > 0 is the noise ratio from which; False always estimates the
-    points themselves. `cell_means` on the result says which ran.
+    points themselves; nhnet-cli's words 'auto' and 'off' work too. `cell_means` on the
+    result says which ran.
 
 The GIL is released while the core runs; Ctrl-C interrupts it (KeyboardInterrupt).
 

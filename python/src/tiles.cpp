@@ -169,6 +169,8 @@ void register_tiles(py::module_& m) {
       },
       "(name, why) of the core's default method (estimate.hpp default_method(); why is empty "
       "unless it fell back to MFPS): every front end's default.");
+  m.def("_cell_means_ratio", &cell_means_from_string,
+        "The noise ratio of nhnet-cli's --cell-means text (auto, off = 0 or a ratio > 0).");
   m.def("_probe_step", &probe_step);
   m.def("_variation_step", &variation_step);
   m.def(

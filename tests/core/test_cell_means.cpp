@@ -147,3 +147,22 @@ TEST(CellMeans, BadOptionsAreRefused) {
   o.cell_means.noise_ratio = -1;
   EXPECT_THROW(estimate_normals(fixtures::sphere(100, 1).points, o), InvalidOptions);
 }
+
+// Every front end reads its cell-mean setting through this parser (nhnet-cli --cell-means, the
+// Python cell_means=, nhnet.distributed --cell-means): the same words, the same ratios.
+TEST(CellMeans, SettingFromTextIsTheCoreDefaultOffOrARatio) {
+  EXPECT_EQ(cell_means_from_string("auto"), CellMeanOptions{}.noise_ratio);
+  EXPECT_EQ(cell_means_from_string("off"), 0.0);
+  EXPECT_EQ(cell_means_from_string("0.5"), 0.5);
+  EXPECT_EQ(cell_means_from_string("2e1"), 20.0);
+  for (const char* bad : {"", "0", "-1", "nan", "inf", "1e", "1.5x", " 1", "Auto", "1\n2"}) {
+    try {
+      cell_means_from_string(bad);
+      ADD_FAILURE() << "accepted '" << bad << "'";
+    } catch (const InvalidOptions& e) {
+      const std::string what = e.what();
+      EXPECT_EQ(what.rfind("must be auto, off or a noise ratio > 0, got '", 0), 0u) << what;
+      EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+    }
+  }
+}

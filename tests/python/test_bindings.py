@@ -104,8 +104,11 @@ def test_dense_noisy_cloud_through_cell_means():
     # A number is the noise ratio from which: 50 leaves the cloud to its points, 0.5 averages.
     assert nhnet.estimate(pts, method="pca", threads=2, orient=None, cell_means=50.0).cell_means == 0
     assert nhnet.estimate(pts, method="pca", threads=2, orient=None, cell_means=0.5).cell_means > 0
-    for bad in (0, -1.0, float("nan"), "auto"):
-        with pytest.raises(nhnet.InvalidOptions, match="cell_means"):
+    # nhnet-cli's words, through the core's one parser.
+    assert nhnet.estimate(pts, method="pca", threads=2, orient=None, cell_means="off").cell_means == 0
+    assert nhnet.estimate(pts, method="pca", threads=2, orient=None, cell_means="0.5").cell_means > 0
+    for bad in (0, -1.0, float("nan"), "maybe", "", None):
+        with pytest.raises(nhnet.InvalidOptions, match="cell_means must be auto, off"):
             nhnet.estimate(pts[:100], method="pca", cell_means=bad)
 
 

@@ -286,6 +286,13 @@ def test_bad_arguments_exit_2(tmp_path):
                         str(tmp_path / "o.ply"), "--scheduler", "tcp://127.0.0.1:1",
                         "--orient", "sideways"], capture_output=True, text=True, env=ENV)
     assert r.returncode == 2 and "--orient" in r.stderr
+    # --cell-means through the core's parser, as nhnet-cli's: the same words, the same message.
+    for bad in ("maybe", "0", "-1", "nan"):
+        r = subprocess.run([sys.executable, "-m", "nhnet.distributed", "estimate", "missing.ply",
+                            str(tmp_path / "o.ply"), "--scheduler", "tcp://127.0.0.1:1",
+                            "--cell-means", bad], capture_output=True, text=True, env=ENV)
+        assert r.returncode == 2 and "--cell-means: must be auto, off or a noise ratio > 0" in \
+            r.stderr, r.stderr
 
 
 def test_malformed_single_file_exit_2(cluster, tmp_path):

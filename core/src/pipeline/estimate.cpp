@@ -22,11 +22,13 @@
 
 #include <algorithm>
 #include <array>
+#include <charconv>
 #include <cmath>
 #include <cstddef>
 #include <limits>
 #include <memory>
 #include <stdexcept>
+#include <system_error>
 
 namespace nhnet {
 
@@ -72,6 +74,21 @@ Refine refine_from_string(const std::string& name) {
 }
 
 const char* to_string(Refine refine) { return name_of(kRefineNames, refine); }
+
+double cell_means_from_string(const std::string& text) {
+  if (text == "auto") return CellMeanOptions{}.noise_ratio;
+  if (text == "off") return 0;
+  double ratio = std::nan("");
+  const char* last = text.data() + text.size();
+  const auto [ptr, ec] = std::from_chars(text.data(), last, ratio);
+  if (text.empty() || ec != std::errc() || ptr != last || !std::isfinite(ratio) || !(ratio > 0)) {
+    std::string shown = text.substr(0, 40);  // one line, whatever was given
+    for (char& c : shown)
+      if (static_cast<unsigned char>(c) < 0x20) c = ' ';
+    throw InvalidOptions("must be auto, off or a noise ratio > 0, got '" + shown + "'");
+  }
+  return ratio;
+}
 
 const char* to_string(Method method) { return name_of(kMethodNames, method); }
 

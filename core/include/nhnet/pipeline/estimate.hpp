@@ -30,6 +30,11 @@ const char* to_string(Method method);
 Refine refine_from_string(const std::string& name);
 const char* to_string(Refine refine);
 
+/// Parses a cell-mean setting (CellMeanOptions::noise_ratio): "auto" = the default ratio, "off" =
+/// 0, else the noise ratio from which (a number > 0); throws InvalidOptions whose message starts
+/// "must be" (the caller prefixes its option's name).
+double cell_means_from_string(const std::string& text);
+
 /// Whether the network runs on every point (else only where MFPS moved the normal) under
 /// `options` for a cloud of this noise ratio.
 bool network_everywhere(const ModelOptions& options, double noise_ratio);
