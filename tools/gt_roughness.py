@@ -21,13 +21,15 @@ and how far below PCL's rest NH-Net's must fall for its RMS to be 20 % below PCL
 from __future__ import annotations
 
 import argparse
-import collections
 import json
 import math
 import sys
 from pathlib import Path
 
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bench"))
+from nhnet_bench import pcl_best_k  # noqa: E402  (the bars' rule, one place)
 
 DENSE_SAMPLES = 400_000  # mesh samples for the local mean normal (~20 per spacing disk at 20k)
 RADII = (1.0, 2.0)       # in point spacings (median distance to the nearest other point)
@@ -91,12 +93,9 @@ def cmd_floors(args) -> None:
 
 
 def best_k_rms(recs: list[dict]) -> tuple[dict[str, float], int]:
-    """Per cloud: PCL's RMS at the K of the lowest mean RMS over the category's clouds."""
-    by_k = collections.defaultdict(list)
-    for r in recs:
-        by_k[r["k"]].append(r)
-    k = min(by_k, key=lambda k: np.mean([r["rms_deg"] for r in by_k[k]]))
-    return {r["cloud"]: r["rms_deg"] for r in by_k[k]}, k
+    """Per cloud: PCL's RMS at the category's best K (the benchmark's rule, pcl_best_k)."""
+    k = pcl_best_k(recs)
+    return {r["cloud"]: r["rms_deg"] for r in recs if r["k"] == k and "error" not in r}, k
 
 
 def rest(rms: np.ndarray, floor: np.ndarray) -> np.ndarray:
