@@ -246,8 +246,7 @@ bool tile_through_cell_means(const Points& points, const EstimateOptions& option
                              double noise_ratio, double spacing, EstimateResult& out) {
   start_threads(options.run.threads);
   Prepared prepared;  // no probe: the whole cloud's noise is given
-  prepared.canon = canonical_points(points, prepared.warnings);
-  prepared.tree = std::make_unique<Neighbors>(prepared.canon.pts);
+  index_points(points, prepared);
   return estimate_means(points, prepared, noise_ratio, spacing / prepared.canon.unit, options, out,
                         nullptr);
 }

@@ -209,10 +209,14 @@ Canonical canonical_points(const Points& points, std::vector<std::string>& warni
   return c;
 }
 
-void prepare_points(const Points& points, Prepared& prepared, const RunContext& run) {
+void index_points(const Points& points, Prepared& prepared) {
   prepared.source = points.data();
   prepared.canon = canonical_points(points, prepared.warnings);
   prepared.tree = std::make_unique<Neighbors>(prepared.canon.pts);
+}
+
+void prepare_points(const Points& points, Prepared& prepared, const RunContext& run) {
+  index_points(points, prepared);
   prepared.probe = probe_noise(prepared.canon.pts, *prepared.tree, run, nullptr);
   prepared.probed = true;
 }

@@ -161,6 +161,9 @@ struct Prepared {
 /// probe's progress), what a step before the estimate leaves it (the cell-mean decision's).
 void prepare_points(const Points& points, Prepared& prepared, const RunContext& run);
 
+/// prepare_points without the probe (a tile through cell means is given the whole cloud's noise).
+void index_points(const Points& points, Prepared& prepared);
+
 /// The noise probe of `pts` (M x 3, canonical order) over `tree` (built on pts): every point of
 /// clouds up to kProbeAllPoints (then `table`, when given, receives the M x 75 probe table),
 /// an evenly spaced subset of larger ones.
