@@ -127,14 +127,17 @@ int32_t blend_means(const NearestMeans& near, size_t c, const EstimateResult& of
 }
 
 /// The result of the input rows from the means' result: each canonical point's nearest mean's.
+/// `sides` receives each canonical point's nearest valid mean (blend_means; -1: none).
 EstimateResult from_means(const Points& points, const Canonical& canon, const NearestMeans& nearest,
-                          EstimateResult&& of_means) {
+                          EstimateResult&& of_means, std::vector<int32_t>& sides) {
   EstimateResult res = empty_result(points.rows());
   if (!of_means.candidate.empty()) res.candidate.assign(size_t(points.rows()), 0);
+  sides.assign(canon.rows.size(), -1);
   for (size_t c = 0; c < canon.rows.size(); ++c) {
     const Eigen::Index row = Eigen::Index(canon.rows[c]);
     Eigen::RowVector3d normal;
     const int32_t side = blend_means(nearest, c, of_means, normal, res.curvature[row]);
+    sides[c] = side;
     if (side < 0) continue;
     res.normals.row(row) = normal;
     res.valid[size_t(row)] = 1;
@@ -150,17 +153,16 @@ EstimateResult from_means(const Points& points, const Canonical& canon, const Ne
   return res;
 }
 
-/// The means, their normals and each input row's mean (rows without a valid mean: -1).
-void keep_means(const Canonical& canon, const NearestMeans& nearest, const EstimateResult& of_means,
+/// The means, their normals and each input row's mean (`sides`, from_means's; -1: none).
+void keep_means(const Canonical& canon, const std::vector<int32_t>& sides, Normals&& normals,
                 Points&& means, MeansRun& keep) {
   keep.mean_of_row.assign(canon.copies.size(), -1);
-  for (size_t c = 0; c < canon.rows.size(); ++c)
-    keep.mean_of_row[size_t(canon.rows[c])] = nearest.nearest_valid(c, of_means);
+  for (size_t c = 0; c < canon.rows.size(); ++c) keep.mean_of_row[size_t(canon.rows[c])] = sides[c];
   for (size_t i = 0; i < canon.copies.size(); ++i)
     if (canon.copies[i] >= 0 && canon.copies[i] != int64_t(i))
       keep.mean_of_row[i] = keep.mean_of_row[size_t(canon.copies[i])];
   keep.means = std::move(means);
-  keep.normals = of_means.normals;
+  keep.normals = std::move(normals);
   keep.unit = canon.unit;
 }
 
@@ -212,8 +214,10 @@ bool estimate_means(const Points& points, Prepared& prepared, double ratio, doub
   EstimateResult of_means = estimate_points(means, o, TileOverrides{});
   for (const std::string& w : of_means.warnings) warnings.push_back("cell means: " + w);
   const NearestMeans nearest = nearest_means(canon.pts, means, narrow(run, 0.95, 1));
-  if (keep) keep_means(canon, nearest, of_means, std::move(means), *keep);
-  out = from_means(points, canon, nearest, std::move(of_means));
+  Normals mean_normals = keep ? of_means.normals : Normals();
+  std::vector<int32_t> sides;
+  out = from_means(points, canon, nearest, std::move(of_means), sides);
+  if (keep) keep_means(canon, sides, std::move(mean_normals), std::move(means), *keep);
   out.noise_ratio = ratio;
   out.spacing = spacing * canon.unit;  // input units
   out.warnings = std::move(warnings);
