@@ -7,7 +7,9 @@ speed trade off, commit the measured front, RMS vs time, >= 4 model sizes").
 
 Sizes, smallest first: `mfps` (`--method mfps`, no network), `mix` (NH-Net and the candidate
 mix: `--learned-fit off`), `h16` (the shipped learned fit) and `NAME=FILE`, the same fit with the
-weights of FILE (`tools/fit_learned_fit.py fit ... --hidden H --write FILE`). For each size this
+weights of FILE (`tools/fit_learned_fit.py fit ... --hidden H --write FILE`). `@MODEL` after a
+size runs it with another NH-Net model file (`v6@models/nhnet-v6.pt`: the shipped fit on the
+larger v6 network; the network's size, where the others vary the fit's). For each size this
 builds nhnet-cli and nhnet-bench-worker with its weights (CMake NHNET_LEARNED_FIT_WEIGHTS: only
 learned_fit.cpp recompiles) and keeps copies of them; the shipped weights are then built back
 (also after a failure). Then, size after size, it times the whole `nhnet-cli estimate CLOUD.xyz
@@ -41,16 +43,22 @@ CATEGORIES = list(nhnet_bench.PROTOCOL_K)  # the test split's categories, in the
 SHIPPED = "h16"  # the size whose weights are core/src/learned/learned_fit_weights.inc
 
 
-def parse_sizes(text: str) -> list[tuple[str, str]]:
-    """(name, weights file or '') for each size; mfps and mix take no weights."""
+def parse_sizes(text: str) -> list[tuple[str, str, str]]:
+    """(name, weights file or '', model file or '') for each NAME[=WEIGHTS][@MODEL]; mfps and
+    mix take no weights, mfps no model; a size with a model of its own may keep the shipped fit."""
     out = []
     for item in text.split(","):
-        name, _, path = item.partition("=")
-        if path and not Path(path).is_file():
-            sys.exit(f"front: {path}: weights file not found (size {name})")
-        if not path and name not in ("mfps", "mix", SHIPPED):
-            sys.exit(f"front: size {name} needs a weights file (NAME=FILE)")
-        out.append((name, str(Path(path).resolve()) if path else ""))
+        head, _, model = item.partition("@")
+        name, _, path = head.partition("=")
+        for file, what in ((path, "weights"), (model, "model")):
+            if file and not Path(file).is_file():
+                sys.exit(f"front: {file}: {what} file not found (size {name})")
+        if model and name == "mfps":
+            sys.exit("front: size mfps runs no network (no @MODEL)")
+        if not path and not model and name not in ("mfps", "mix", SHIPPED):
+            sys.exit(f"front: size {name} needs a weights file (NAME=FILE) or a model (NAME@MODEL)")
+        out.append((name, str(Path(path).resolve()) if path else "",
+                    str(Path(model).resolve()) if model else ""))
     return out
 
 
@@ -72,15 +80,17 @@ def programs(build_dir: Path, into: Path) -> Path:
     return into
 
 
-def cli_args(name: str) -> list[str]:
-    return {"mfps": ["--method", "mfps"], "mix": ["--learned-fit", "off"]}.get(name, [])
+def cli_args(name: str, model: str = "") -> list[str]:
+    return ({"mfps": ["--method", "mfps"], "mix": ["--learned-fit", "off"]}.get(name, [])
+            + (["--model", model] if model else []))
 
 
 def bench_method(name: str) -> str:
     return {"mfps": "mfps-auto", "mix": "nhnet-mix"}.get(name, "nhnet")
 
 
-def time_size(build_dir: Path, name: str, clouds: list[Path], tmp: Path, threads: int) -> dict:
+def time_size(build_dir: Path, name: str, model: str, clouds: list[Path], tmp: Path,
+              threads: int) -> dict:
     """Whole-process seconds of the size and of PCL around it, per timing cloud."""
     cli, worker = build_dir / "cli" / "nhnet-cli", build_dir / "bench" / "nhnet-bench-worker"
     out = {}
@@ -89,7 +99,7 @@ def time_size(build_dir: Path, name: str, clouds: list[Path], tmp: Path, threads
         pcl = [str(worker), "pcl-pca", "50", str(gt), "--threads", str(threads)]
         before = run(pcl)[0]
         wall = run([str(cli), "estimate", str(xyz), str(tmp / "out.xyzn"), "--threads",
-                    str(threads), "--overwrite", "--quiet"] + cli_args(name))[0]
+                    str(threads), "--overwrite", "--quiet"] + cli_args(name, model))[0]
         after = run(pcl)[0]
         out[gt.name] = {"seconds": wall, "pcl_seconds": (before + after) / 2,
                         "ratio": wall / ((before + after) / 2)}
@@ -98,13 +108,14 @@ def time_size(build_dir: Path, name: str, clouds: list[Path], tmp: Path, threads
     return out
 
 
-def accuracy(build_dir: Path, name: str, work: Path, threads: int,
+def accuracy(build_dir: Path, name: str, model: str, work: Path, threads: int,
              categories: list[str]) -> dict:
     """Per category: mean over the test split's clouds of RMS and mean error (bench/nhnet_bench.py)."""
     method, out = bench_method(name), work / f"bench-{name}"
     subprocess.run([sys.executable, str(REPO / "bench" / "nhnet_bench.py"), "--categories",
                     ",".join(categories), "--methods", method, "--threads", str(threads),
-                    "--build", str(build_dir), "--out", str(out)], check=True,
+                    "--build", str(build_dir), "--out", str(out)]
+                   + (["--model", model] if model else []), check=True,
                    stdout=subprocess.DEVNULL)
     return per_category([json.loads(line) for line in (out / "records.jsonl").open()], method)
 
@@ -141,7 +152,10 @@ def report(res: dict) -> str:
           f"references (pca-auto, PCL best single K) from `{res['reference']}`",
           "- time: the whole `nhnet-cli estimate` process (read, estimate, MST orientation, "
           "write) / PCL NormalEstimationOMP (k=50) as a process, the mean of the runs just "
-          "before and after", "",
+          "before and after"]
+    own = [f"{n} {s['model']}" for n, s in sizes.items() if s.get("model")]
+    md += ([f"- NH-Net model: the shipped one, but {', '.join(own)}"] if own else []) + [
+          "",
           "| size | " + " | ".join(f"{c} RMS / mean" for c in cats)
           + " | categories' mean RMS / mean | " + " | ".join(f"× PCL {c}" for c in res["clouds"]) + " |",
           "|---|" + "---|" * (len(cats) + 1 + len(res["clouds"]))]
@@ -195,19 +209,21 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         bins = {}
         try:
-            for name, weights in sizes:
+            for name, weights, _ in sizes:
                 build(build_dir, weights)
                 bins[name] = programs(build_dir, Path(tmp) / f"bin-{name}")
         finally:
             build(build_dir, "")
         # Timing first, all sizes one after the other (the machine must be idle), then accuracy.
-        for name, weights in sizes:
+        for name, weights, model in sizes:
             res["sizes"][name] = {"weights": Path(weights).name if weights else "",
-                                  "time": time_size(bins[name], name, clouds, Path(tmp), a.threads)}
+                                  "model": Path(model).name if model else "",
+                                  "time": time_size(bins[name], name, model, clouds, Path(tmp),
+                                                    a.threads)}
         print("front: timing done; accuracy on the test split follows", flush=True)
-        for name, _ in sizes:
-            res["sizes"][name]["accuracy"] = accuracy(bins[name], name, Path(tmp), a.threads,
-                                                      a.categories.split(","))
+        for name, _, model in sizes:
+            res["sizes"][name]["accuracy"] = accuracy(bins[name], name, model, Path(tmp),
+                                                      a.threads, a.categories.split(","))
             (out / "results.json").write_text(json.dumps(res, indent=1) + "\n")
     (out / "table.md").write_text(report(res))
     print(report(res))

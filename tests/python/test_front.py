@@ -36,14 +36,22 @@ def test_references_are_the_committed_tables():
 def test_sizes_are_checked_before_any_build(tmp_path):
     inc = tmp_path / "h4.inc"
     inc.write_text("// weights\n")
-    sizes = front.parse_sizes(f"mfps,mix,h16,h4={inc}")
-    assert sizes[:3] == [("mfps", ""), ("mix", ""), ("h16", "")]
-    assert sizes[3] == ("h4", str(inc.resolve()))
+    model = REPO / "models" / "nhnet-v6.pt"
+    sizes = front.parse_sizes(f"mfps,mix,h16,h4={inc},v6@{model},h4v6={inc}@{model}")
+    assert sizes[:3] == [("mfps", "", ""), ("mix", "", ""), ("h16", "", "")]
+    assert sizes[3] == ("h4", str(inc.resolve()), "")
+    assert sizes[4] == ("v6", "", str(model.resolve()))
+    assert sizes[5] == ("h4v6", str(inc.resolve()), str(model.resolve()))
     with pytest.raises(SystemExit, match="weights file not found"):
         front.parse_sizes(f"h4={tmp_path / 'missing.inc'}")
+    with pytest.raises(SystemExit, match="model file not found"):
+        front.parse_sizes(f"v6@{tmp_path / 'missing.pt'}")
     with pytest.raises(SystemExit, match="needs a weights file"):
         front.parse_sizes("h64")
+    with pytest.raises(SystemExit, match="mfps runs no network"):
+        front.parse_sizes(f"mfps@{model}")
     assert front.cli_args("mix") == ["--learned-fit", "off"]
+    assert front.cli_args("v6", "m.pt") == ["--model", "m.pt"]
     assert front.bench_method("mix") == "nhnet-mix" and front.bench_method("h4") == "nhnet"
 
 
@@ -54,6 +62,9 @@ def test_report_states_the_bars_from_the_numbers():
            "clouds": ["a.gt.xyzn"], "references": refs,
            "sizes": {"h16": {"accuracy": acc, "time": {"a.gt.xyzn": {"ratio": 6.5, "seconds": 58}}}}}
     md = front.report(res)
+    assert "NH-Net model" not in md  # every size on the shipped model
+    res["sizes"]["h16"]["model"] = "nhnet-v6.pt"
+    assert "- NH-Net model: the shipped one, but h16 nhnet-v6.pt" in front.report(res)
     # 9 / 10 - 1 = -10 %, 9 / 12.5 - 1 = -28 %
     assert "| h16 | " + " | ".join(["-10.0 % / -28.0 %"] * 6) + " |" in md
     assert "| 9.00 / 5.00 | 6.50 (58 s) |" in md
