@@ -80,9 +80,14 @@ def programs(build_dir: Path, into: Path) -> Path:
     return into
 
 
+def model_args(model: str) -> list[str]:
+    """The model option of nhnet-cli and bench/nhnet_bench.py alike; none for the shipped model."""
+    return ["--model", model] if model else []
+
+
 def cli_args(name: str, model: str = "") -> list[str]:
     return ({"mfps": ["--method", "mfps"], "mix": ["--learned-fit", "off"]}.get(name, [])
-            + (["--model", model] if model else []))
+            + model_args(model))
 
 
 def bench_method(name: str) -> str:
@@ -114,8 +119,8 @@ def accuracy(build_dir: Path, name: str, model: str, work: Path, threads: int,
     method, out = bench_method(name), work / f"bench-{name}"
     subprocess.run([sys.executable, str(REPO / "bench" / "nhnet_bench.py"), "--categories",
                     ",".join(categories), "--methods", method, "--threads", str(threads),
-                    "--build", str(build_dir), "--out", str(out)]
-                   + (["--model", model] if model else []), check=True,
+                    "--build", str(build_dir), "--out", str(out)] + model_args(model),
+                   check=True,
                    stdout=subprocess.DEVNULL)
     return per_category([json.loads(line) for line in (out / "records.jsonl").open()], method)
 
