@@ -43,6 +43,10 @@ PKGS=(
   # the reference BLAS (~16x slower); BLIS, not OpenBLAS, whose load-time buffers hang a
   # process under an address-space limit (docs/design/decisions.md#blis-under-torch)
   libblis4-openmp
+  # LAZ and E57 (core/rust: the laz and e57 crates, vendored in core/rust/vendor): Debian 12's own
+  # newer Rust toolchain (rustc-web / cargo-web replace /usr/bin/cargo and /usr/bin/rustc; the
+  # plain cargo package's 1.63 is too old), never a rustup toolchain that happens to be on PATH
+  cargo-web rustc-web
 )
 
 SUDO=""
@@ -69,15 +73,6 @@ fi
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 bash scripts/apt-source.sh meshlab deps-src >/dev/null
 bash scripts/apt-source.sh cloudcompare deps-src >/dev/null
-
-# LAZ and E57 (core/rust: the laz and e57 crates, fetched by cargo at build time): cargo and
-# rustc, the machine's own (rustup) when on PATH or in ~/.cargo/bin, else Debian's.
-if ! command -v cargo >/dev/null 2>&1 && [ ! -x "$HOME/.cargo/bin/cargo" ]; then
-  echo "install-deps: installing Debian's cargo"
-  export DEBIAN_FRONTEND=noninteractive
-  $SUDO apt-get update -q
-  $SUDO apt-get install -y -q --no-install-recommends cargo
-fi
 
 # Independent LAS/LAZ/E57 readers and writers for the tests (tests/python/test_formats_las_e57.py,
 # tests/cli/bad_input_test.sh): laspy with lazrs, pye57 (wheels), into Debian's python3.
