@@ -86,6 +86,11 @@ set(CPACK_DEBIAN_PYTHON_PACKAGE_SECTION python)
 set(CPACK_COMPONENT_PYTHON_DEPENDS models)
 set(CPACK_DEBIAN_PYTHON_PACKAGE_DEPENDS "python3 (>= 3.11), python3 (<< 3.12), python3-numpy")
 set(CPACK_DEBIAN_PYTHON_PACKAGE_RECOMMENDS "python3-distributed, libblis4-openmp")
+# py3compile / py3clean (python3-minimal), as dh_python3 would add: __pycache__ goes with a purge.
+set(CPACK_DEBIAN_PYTHON_PACKAGE_CONTROL_EXTRA
+    ${PROJECT_SOURCE_DIR}/cmake/debian/python3-nhnet/postinst
+    ${PROJECT_SOURCE_DIR}/cmake/debian/python3-nhnet/prerm)
+set(CPACK_DEBIAN_PACKAGE_CONTROL_STRICT_PERMISSION ON)
 set(CPACK_COMPONENT_PYTHON_DESCRIPTION "${_summary} - Python 3 module\n${_about}\n\nThis package holds the Python 3 module nhnet and its Dask front end\nnhnet.distributed.")
 
 set(CPACK_DEBIAN_DEV_PACKAGE_NAME libnhnet-dev)
