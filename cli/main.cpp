@@ -53,8 +53,9 @@ int run_guarded(const std::function<int()>& run) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"nhnet-cli: normal estimation for unstructured point clouds (PLY, PCD, XYZ).",
-               "nhnet-cli"};
+  CLI::App app{
+      "nhnet-cli: normal estimation for unstructured point clouds (PLY, PCD, XYZ, LAS/LAZ, E57).",
+      "nhnet-cli"};
   app.set_version_flag("--version", std::string("nhnet-cli ") + nhnet::version(),
                        "Print the version and exit");
   app.require_subcommand(1);

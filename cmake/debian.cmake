@@ -115,6 +115,23 @@ set(CPACK_COMPONENT_CLOUDCOMPARE_PLUGIN_DEPENDS models)
 set(CPACK_DEBIAN_CLOUDCOMPARE_PLUGIN_PACKAGE_DEPENDS "cloudcompare (= ${_cc_version})")
 set(CPACK_COMPONENT_CLOUDCOMPARE_PLUGIN_DESCRIPTION "${_summary} - CloudCompare plugin\n${_about}\n\nThis package adds Plugins > NH-Net normals and the -NHNET_NORMALS and\n-NHNET_DENOISE commands to CloudCompare ${_cc_version}.")
 
+# nhnet-cli's manual page, from its --help (help2man), as Debian asks of a program in /usr/bin.
+find_program(NHNET_HELP2MAN help2man)
+if(NHNET_HELP2MAN AND TARGET nhnet-cli)
+  set(_man ${PROJECT_BINARY_DIR}/debian-doc/nhnet-cli.1)
+  add_custom_command(OUTPUT ${_man}.gz
+    COMMAND ${NHNET_HELP2MAN} --no-info --name "normal estimation for unstructured point clouds"
+            --include ${PROJECT_SOURCE_DIR}/cmake/debian/nhnet-cli.h2m --output ${_man}
+            $<TARGET_FILE:nhnet-cli>
+    COMMAND gzip -9nf ${_man}
+    DEPENDS nhnet-cli ${PROJECT_SOURCE_DIR}/cmake/debian/nhnet-cli.h2m VERBATIM)
+  add_custom_target(nhnet_cli_manpage ALL DEPENDS ${_man}.gz)
+  install(FILES ${_man}.gz DESTINATION ${CMAKE_INSTALL_MANDIR}/man1 COMPONENT cli)
+else()
+  message(WARNING "nhnet: no help2man (scripts/install-deps.sh installs it): nhnet-cli's "
+                  "package goes without its manual page")
+endif()
+
 set(CPACK_COMPONENTS_ALL models cli python dev)
 if(NHNET_MESHLAB_PLUGIN_BUILT)
   list(APPEND CPACK_COMPONENTS_ALL meshlab_plugin)

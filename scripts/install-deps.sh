@@ -47,6 +47,8 @@ PKGS=(
   # newer Rust toolchain (rustc-web / cargo-web replace /usr/bin/cargo and /usr/bin/rustc; the
   # plain cargo package's 1.63 is too old), never a rustup toolchain that happens to be on PATH
   cargo-web rustc-web
+  # Debian packages (scripts/package.sh): nhnet-cli's manual page from its --help
+  help2man
 )
 
 SUDO=""
