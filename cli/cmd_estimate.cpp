@@ -167,6 +167,7 @@ void estimate_in_memory(const EstimateArgs& a, const Setup& st, Outcome& o) {
 
   // Write (exit 6); write_cloud goes through a temporary file + rename.
   cloud.normals = std::move(res.normals);
+  cloud.confidence = std::move(res.confidence);  // empty without --confidence
   write_output(rep, o.out, cloud, a.output.ascii);
   o.failed = res.failed;
   o.seconds = rep.elapsed();

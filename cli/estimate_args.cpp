@@ -105,6 +105,12 @@ void add_stream_orient_options(CLI::App* sub, EstimateArgs& a) {
                 "normals as in memory (as accurate, not equal, through --cell-means); output .ply "
                 "or .xyz/.xyzn (x y z nx ny nz); orientation "
                 "auto (keep when the input has normals, else none), keep or viewpoint");
+  sub->add_flag("--confidence", a.confidence,
+                "Also write each normal's confidence in [0, 1] (the chance that it is within 30 "
+                "degrees of the true normal, judged from its neighbourhood): PLY / PCD property "
+                "'confidence', LAS / LAZ float extra bytes 'Confidence', E57 field "
+                "'nhnet:confidence', XYZ a 7th column; NaN where a point failed " +
+                    default_note(nhnet::EstimateOptions{}.confidence ? "on" : "off"));
   sub->add_option("--temp-dir", a.temp_dir,
                   "--stream: folder for the temporary tile files, ~48 bytes per point (default: "
                   "the output's folder)")
@@ -200,6 +206,7 @@ Setup prepare(const EstimateArgs& a) {
   opt.model.learned_fit = a.learned_fit == "on";
   opt.model.refine = nhnet::refine_from_string(a.refine);
   opt.cell_means.noise_ratio = parse_cell_means(a.cell_means);
+  opt.confidence = a.confidence;
   if (opt.method != nhnet::Method::NhNet && nhnet_asked)
     throw nhnet::InvalidOptions(
         "--model, --device, --precision, --candidate-mix, --learned-fit and --refine only "
@@ -221,6 +228,10 @@ void check_stream(const EstimateArgs& a, const Setup& st) {
                                 " needs the whole cloud in memory; with --stream "
                                 "use auto, none, keep or viewpoint X Y Z");
   if (st.opt.tiles.points <= 0) throw nhnet::InvalidOptions("--stream needs --tile-points > 0");
+  if (a.confidence)
+    throw nhnet::InvalidOptions(
+        "--confidence is not available with --stream yet (in memory, or nhnet.distributed, "
+        "write it)");
   const std::string out =
       a.batch() ? "x." + (a.ext.empty() ? std::string("xyzn") : a.ext) : a.files[1];
   const nhnet::FileFormat f = nhnet::format_from_extension(out);

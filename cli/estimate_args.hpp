@@ -41,8 +41,9 @@ struct EstimateArgs {
   std::string refine = nhnet::to_string(nhnet::EstimateOptions{}.model.refine);
   /// Dense clouds through cell means (CellMeanOptions): auto | off | the noise ratio from which
   std::string cell_means = nhnet::EstimateOptions{}.cell_means.noise_ratio > 0 ? "auto" : "off";
-  bool stream = false;   ///< --stream: out of core, XYZ input
-  std::string temp_dir;  ///< --temp-dir (stream)
+  bool stream = false;      ///< --stream: out of core, XYZ input
+  bool confidence = false;  ///< --confidence: write each normal's confidence too
+  std::string temp_dir;     ///< --temp-dir (stream)
   OutputFlags output;
 
   bool batch() const { return !out_dir.empty(); }

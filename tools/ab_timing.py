@@ -1,6 +1,6 @@
 """Whole-process time of two nhnet-cli builds against PCL, interleaved (issue 23).
 
-    /usr/bin/python3 tools/ab_timing.py --a OLD/nhnet-cli --b NEW/nhnet-cli \
+    /usr/bin/python3 tools/ab_timing.py --a OLD/nhnet-cli --b NEW/nhnet-cli [--b-args ARGS] \
         --worker build/bench/nhnet-bench-worker [--reps 2] [--threads 2] [--tmp DIR] \
         CLOUD.gt.xyzn [...] [-- extra nhnet-cli estimate arguments]
 
@@ -82,6 +82,8 @@ def main() -> None:
     ap.add_argument("--reps", type=int, default=2)
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--tmp", default="/tmp/nhnet-ab", help="inputs and outputs")
+    ap.add_argument("--b-args", default="",
+                    help="arguments for B only, e.g. '--confidence' (A and B the same build)")
     ap.add_argument("clouds", nargs="+")
     args = ap.parse_args(argv)
     tmp = Path(args.tmp)
@@ -110,7 +112,7 @@ def main() -> None:
                 loads.append(os.getloadavg()[0])
                 cmd = [cli, "estimate", str(xyz), str(outs[name]), "--threads", str(args.threads),
                        "--overwrite"]
-                wall, cpu, _ = run(cmd + extra)
+                wall, cpu, _ = run(cmd + extra + (args.b_args.split() if name == "B" else []))
                 times[name].append(wall)
                 times[name + "-cpu"].append(cpu)
                 print(f"{cloud.name} {name} {wall:.2f} s, CPU {cpu:.2f} s", flush=True)
@@ -128,7 +130,8 @@ def main() -> None:
               f"| {med['B']:.2f} [{med['B-cpu']:.2f}] | {med['B'] / p:.1f} [{med['B-cpu'] / pc:.1f}] "
               f"| {med['B'] / med['A']:.2f} [{med['B-cpu'] / med['A-cpu']:.2f}] "
               f"| {lo:.1f}-{hi:.1f} | {diff:.1e} |")
-    print(f"\nmedians of {rows[0][5] if rows else 0} runs each; extra arguments: {' '.join(extra)}")
+    print(f"\nmedians of {rows[0][5] if rows else 0} runs each; extra arguments: {' '.join(extra)}"
+          f"{'; B also ' + args.b_args if args.b_args else ''}")
 
 
 if __name__ == "__main__":

@@ -74,6 +74,7 @@ Prepared prepare(const NormalsSettings& s) {
   p.options.mfps.scales = parse_scales(s.scales);
   if (s.threads < 0) throw nhnet::InvalidOptions("threads must be >= 0 (0 = all cores)");
   p.options.run.threads = s.threads;
+  p.options.confidence = s.confidence;
   if (p.options.method == nhnet::Method::Pca && !p.options.mfps.scales.empty())
     p.warnings << "scales are ignored by the pca method";
   if (!s.model.isEmpty() && !uses_model(p.options.method))
@@ -128,6 +129,24 @@ void store_normals(ccPointCloud& cloud, const nhnet::Normals& normals) {
     cloud.setPointNormal(i, v);
   }
   cloud.showNormals(true);
+}
+
+/// Stores the confidences (NaN where a point failed) as the scalar field "NH-Net confidence",
+/// replacing one of that name, and shows it.
+void store_confidence(ccPointCloud& cloud, const Eigen::VectorXd& confidence) {
+  const char* name = "NH-Net confidence";
+  const int old = cloud.getScalarFieldIndexByName(name);
+  if (old >= 0) cloud.deleteScalarField(old);
+  const int index = cloud.addScalarField(name);
+  if (index < 0) throw std::bad_alloc();
+  CCLib::ScalarField* sf = cloud.getScalarField(index);
+  for (unsigned i = 0; i < cloud.size(); ++i)
+    sf->setValue(i, std::isfinite(confidence[Eigen::Index(i)])
+                        ? ScalarType(confidence[Eigen::Index(i)])
+                        : NAN_VALUE);
+  sf->computeMinAndMax();
+  cloud.setCurrentDisplayedScalarField(index);
+  cloud.showSF(true);
 }
 
 Eigen::Vector3d vec(const CCVector3d& v) { return Eigen::Vector3d(v.x, v.y, v.z); }
@@ -269,7 +288,8 @@ NormalsSettings::NormalsSettings()
     : scales(scales_text(nhnet::MfpsOptions{}.scales)),
       orient(nhnet::kDefaultOrientMode),
       threads(nhnet::EstimateOptions{}.run.threads),
-      precision(QString::fromStdString(nhnet::ModelOptions{}.precision)) {
+      precision(QString::fromStdString(nhnet::ModelOptions{}.precision)),
+      confidence(nhnet::kPluginConfidence) {
   method = default_method_name(&fallback_why);  // fallback_why is constructed by now
   const Eigen::Vector3d vp = nhnet::OrientOptions{}.viewpoint;
   viewpoint = {{vp.x(), vp.y(), vp.z()}};
@@ -346,6 +366,7 @@ Outcome estimate_cloud_normals(ccPointCloud& cloud, const NormalsSettings& setti
                         .arg(nhnet::to_string(orient.mode))
                         .arg(ores.unoriented);
   store_normals(cloud, res.normals);
+  if (res.confidence.size() == res.normals.rows()) store_confidence(cloud, res.confidence);
   out.summary = describe(res, p.options.method, in.points.rows()) +
                 describe_orientation(orient.mode, plan.source, ores);
   return out;
@@ -365,6 +386,7 @@ Outcome denoise_cloud(ccPointCloud& cloud, const DenoiseSettings& settings, cons
     NormalsSettings es = settings.estimate;
     es.method = which;
     es.orient = nhnet::OrientMode::None;  // the denoiser does not need signs
+    es.confidence = false;                // nor confidences
     if (which != settings.estimate.method) es.fallback_why.clear();  // chosen, not the default
     p = prepare(es);
     out.warnings << p.warnings;

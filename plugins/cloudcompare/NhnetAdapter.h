@@ -63,6 +63,9 @@ struct NormalsSettings {
   QString model;
   /// The learned method's arithmetic, one of nhnet::kPrecisions (default: the core's, auto).
   QString precision;
+  /// Also store each normal's confidence as the scalar field "NH-Net confidence" (default: the
+  /// core's nhnet::kPluginConfidence).
+  bool confidence;
 
   NormalsSettings();
 };

@@ -66,6 +66,11 @@ bool normals_option(ccCommandLineInterface& cmd, const QString& name, NormalsSet
     s.model = take_value(cmd, "MODEL");
   } else if (name == "PRECISION") {
     s.precision = take_value(cmd, "PRECISION");
+  } else if (name == "CONFIDENCE") {
+    const QString v = take_value(cmd, "CONFIDENCE").toUpper();
+    if (v != "ON" && v != "OFF")
+      throw nhnet::InvalidOptions("-CONFIDENCE takes ON or OFF, not " + v.toStdString());
+    s.confidence = v == "ON";
   } else {
     return false;
   }

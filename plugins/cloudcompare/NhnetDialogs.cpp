@@ -3,6 +3,7 @@
 
 #include "../common/precision_list.hpp"
 
+#include <QCheckBox>
 #include <QComboBox>
 #include <QDialogButtonBox>
 #include <QDoubleSpinBox>
@@ -110,6 +111,13 @@ EstimateDialog::EstimateDialog(const NormalsSettings& initial, QWidget* parent) 
   precision_ = precision_box(initial.precision, this);
   form->addRow("Precision", precision_);
 
+  confidence_ = new QCheckBox("scalar field \"NH-Net confidence\"", this);
+  confidence_->setChecked(initial.confidence);
+  confidence_->setToolTip(
+      "Each normal's confidence in [0, 1]: the chance that it is within 30 degrees of the true "
+      "normal, judged from its neighbourhood");
+  form->addRow("Confidence", confidence_);
+
   connect(method_, &QComboBox::currentTextChanged, this, [this] { updateEnabled(); });
   connect(orient_, QOverload<int>::of(&QComboBox::currentIndexChanged), this,
           [this] { updateEnabled(); });
@@ -137,6 +145,7 @@ NormalsSettings EstimateDialog::settings() const {
   s.threads = threads_->value();
   s.model = model_->text().trimmed();
   s.precision = precision_->currentText();
+  s.confidence = confidence_->isChecked();
   return s;
 }
 

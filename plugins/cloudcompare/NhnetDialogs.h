@@ -6,6 +6,7 @@
 
 #include <QDialog>
 
+class QCheckBox;
 class QComboBox;
 class QDoubleSpinBox;
 class QLineEdit;
@@ -33,6 +34,7 @@ class EstimateDialog : public QDialog {
   QLineEdit* model_;
   QPushButton* browse_;
   QComboBox* precision_;
+  QCheckBox* confidence_;
 };
 
 /// "Normal-guided denoise": iterations, radius, which normals (the cloud's or estimated), and

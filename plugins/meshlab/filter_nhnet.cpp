@@ -33,6 +33,10 @@ struct Choice {
   const char* label;
 };
 
+/// Lowest vertex quality of a computed normal with the confidence on (Screened Poisson drops
+/// normals scaled to zero).
+constexpr double kMinQuality = 1e-3;
+
 // The estimators offered, in menu order (default: the core's, nhnet::default_method()). A method
 // the core gains is one more line here.
 const Choice<nhnet::Method> kMethods[] = {
@@ -288,7 +292,7 @@ int NhnetFilterPlugin::getPreConditions(QAction*) const { return MeshModel::MM_N
 int NhnetFilterPlugin::postCondition(QAction* action) const {
   if (ID(action) == FP_DENOISE)
     return MeshModel::MM_VERTCOORD | MeshModel::MM_VERTNORMAL | MeshModel::MM_FACENORMAL;
-  return MeshModel::MM_VERTNORMAL;
+  return MeshModel::MM_VERTNORMAL | MeshModel::MM_VERTQUALITY;
 }
 
 void NhnetFilterPlugin::initParameterSet(QAction* action, MeshModel& m, RichParameterList& par) {
@@ -344,6 +348,12 @@ void NhnetFilterPlugin::initParameterSet(QAction* action, MeshModel& m, RichPara
                               "TorchScript model written by nhnet-export; empty = the shipped "
                               "model installed with nhnet. Used by the NH-Net method only."));
       par.addParam(precision_param(e.model.precision, "Used by the NH-Net method only."));
+      par.addParam(RichBool("confidence", nhnet::kPluginConfidence, "Confidence as vertex quality",
+                            "Store each normal's confidence in [0, 1] (the chance that it is "
+                            "within 30 degrees of the true normal, judged from its "
+                            "neighbourhood) as vertex quality, at least 0.001 where a normal "
+                            "was computed: Screened Poisson's 'confidence' option then weighs "
+                            "each normal by it. Off: the quality is left as it was."));
       break;
     case FP_DENOISE:
       par.addParam(
@@ -431,6 +441,7 @@ nhnet::EstimateOptions NhnetFilterPlugin::estimateOptions(const RichParameterLis
     opt.model.path = par.getString("model").trimmed().toStdString();
     opt.model.precision = precision_choice(par);
   }
+  opt.confidence = par.getBool("confidence");
   std::string why;
   if (opt.method == nhnet::default_method(&why) && !why.empty())
     Log(GLLogStream::WARNING, "NH-Net: method %s (%s; method NH-Net needs it)",
@@ -481,6 +492,13 @@ void NhnetFilterPlugin::estimate(MeshModel& mm, const RichParameterList& par,
   for (size_t i = 0; i < v.ptr.size(); ++i)
     v.ptr[i]->N() = res.valid[i] ? point3m(res.normals, Eigen::Index(i)) : Point3m(0, 0, 0);
   mm.updateDataMask(MeshModel::MM_VERTNORMAL);
+  if (opt.confidence) {
+    // Screened Poisson multiplies each normal by its quality and drops zero normals: a computed
+    // normal keeps a floor of 0.001, a failed one (zero normal) gets 0.
+    for (size_t i = 0; i < v.ptr.size(); ++i)
+      v.ptr[i]->Q() = res.valid[i] ? std::max(res.confidence[Eigen::Index(i)], kMinQuality) : 0;
+    mm.updateDataMask(MeshModel::MM_VERTQUALITY);
+  }
 
   for (const std::string& w : res.warnings) Log(GLLogStream::WARNING, "NH-Net: " + w);
   const std::string ran = nhnet::network_phrase(res.device_used, res.precision_used);

@@ -3,10 +3,12 @@
 #include "bindings.hpp"
 
 #include "nhnet/errors.hpp"
+#include "nhnet/learned/confidence.hpp"
 #include "nhnet/orient/auto.hpp"
 #include "nhnet/pipeline/estimate.hpp"
 #include "nhnet/pipeline/estimate_oriented.hpp"
 
+#include <pybind11/eigen.h>
 #include <pybind11/stl.h>
 
 #include <cmath>
@@ -24,6 +26,7 @@ struct PyEstimateResult {
   py::array_t<double> normals;
   py::array_t<bool> valid;
   py::array_t<double> curvature;
+  py::object confidence = py::none();      ///< (N,) with confidence=True, else None
   OrientResult orient;                     ///< what orient= did (zeros without it)
   std::string orient_mode, orient_source;  ///< the orientation applied and why
 };
@@ -50,8 +53,9 @@ PyEstimateResult estimate(const py::handle& points, const std::optional<std::str
                           const py::object& progress, const std::string& refine,
                           const std::optional<std::string>& model, const std::string& device,
                           const std::string& precision, bool learned_fit,
-                          const py::object& cell_means) {
+                          const py::object& cell_means, bool confidence) {
   EstimateOptions opt;
+  opt.confidence = confidence;
   opt.cell_means.noise_ratio = cell_means_ratio(cell_means);
   opt.method = method ? method_from_string(*method) : default_method();
   opt.model.refine = refine_from_string(refine);
@@ -79,9 +83,11 @@ PyEstimateResult estimate(const py::handle& points, const std::optional<std::str
   out.normals = to_numpy(r.normals);
   out.valid = to_numpy_mask(r.valid);
   out.curvature = to_numpy(r.curvature);
+  if (confidence) out.confidence = to_numpy(r.confidence);
   r.normals.resize(0, 3);
   r.valid.clear();
   r.curvature.resize(0);
+  r.confidence.resize(0);
   return out;
 }
 
@@ -149,6 +155,9 @@ cell_means : bool, float or str
     accurate or more; a number > 0 is the noise ratio from which; False always estimates the
     points themselves; nhnet-cli's words 'auto' and 'off' work too. `cell_means` on the
     result says which ran.
+confidence : bool
+    nhnet-cli --confidence: also compute each normal's confidence in [0, 1] (the result's
+    `confidence`; default False: a second small neighbour search, a few % more time).
 
 The GIL is released while the core runs; Ctrl-C interrupts it (KeyboardInterrupt).
 
@@ -171,6 +180,10 @@ void register_result(py::module_& m) {
       .def_readonly("curvature", &PyEstimateResult::curvature,
                     "(N,) float64 surface variation lambda_min / sum(lambda) of each point's "
                     "PCA neighbourhood (PCL's 'curvature'); NaN where failed.")
+      .def_readonly("confidence", &PyEstimateResult::confidence,
+                    "(N,) float64 confidence in [0, 1] of each normal: the chance that it is "
+                    "within 30 degrees of the true normal, judged from its neighbourhood; NaN "
+                    "where failed. None unless estimate(..., confidence=True).")
       .def_property_readonly("failed", core_field<PyEstimateResult>(&EstimateResult::failed),
                              "Number of False entries in `valid`.")
       .def_property_readonly("candidates",
@@ -212,8 +225,45 @@ void register_result(py::module_& m) {
 
 }  // namespace
 
+/// nhnet.confidence_features / confidence_from_features (learned/confidence.hpp), for
+/// tools/fit_confidence.py to fit and report on exactly what the core computes.
+void register_confidence(py::module_& m) {
+  py::enum_<ConfidenceModel>(m, "ConfidenceModel", "Whose confidence weights: the method's.")
+      .value("pca", ConfidenceModel::Pca)
+      .value("mfps", ConfidenceModel::Mfps)
+      .value("nhnet", ConfidenceModel::NhNet);
+  m.def(
+      "confidence_features",
+      [](const py::handle& points, const py::handle& normals, const py::handle& curvature,
+         double noise_ratio, int threads) {
+        const Points p = points_of(points);
+        const Normals n = to_points(normals, "normals");
+        const Eigen::VectorXd c = py::cast<Eigen::VectorXd>(curvature);
+        if (n.rows() != p.rows() || c.size() != p.rows())
+          throw InvalidOptions("points, normals and curvature differ in length");
+        py::gil_scoped_release release;
+        return confidence_features(p, n, c, noise_ratio, RunContext{threads, {}});
+      },
+      "(N, 8) features of the confidence of each normal (learned/confidence.hpp), NaN rows "
+      "where the normal is not finite; `curvature` and `noise_ratio` as nhnet.estimate() "
+      "returns them.",
+      py::arg("points"), py::arg("normals"), py::arg("curvature"), py::arg("noise_ratio"),
+      py::kw_only(), py::arg("threads") = 0);
+  m.def(
+      "confidence_from_features",
+      [](const Eigen::MatrixXd& features, ConfidenceModel model) {
+        if (features.cols() != kConfidenceFeatures)
+          throw InvalidOptions("features must have " + std::to_string(kConfidenceFeatures) +
+                               " columns");
+        return confidence_from_features(features, model);
+      },
+      "Confidence in [0, 1] per row of confidence_features(), with the given method's weights.",
+      py::arg("features"), py::arg("model"));
+}
+
 void register_estimate(py::module_& m) {
   register_result(m);
+  register_confidence(m);
   py::tuple precisions(kPrecisions.size());
   for (size_t i = 0; i < kPrecisions.size(); ++i) precisions[i] = kPrecisions[i];
   m.attr("PRECISIONS") = precisions;  // estimate(precision=...), the default first
@@ -233,7 +283,8 @@ void register_estimate(py::module_& m) {
       py::arg("refine") = to_string(defaults.model.refine), py::arg("model") = py::none(),
       py::arg("device") = defaults.model.device, py::arg("precision") = defaults.model.precision,
       py::arg("learned_fit") = defaults.model.learned_fit,
-      py::arg("cell_means") = py::bool_(defaults.cell_means.noise_ratio > 0));
+      py::arg("cell_means") = py::bool_(defaults.cell_means.noise_ratio > 0),
+      py::arg("confidence") = defaults.confidence);
   std::apply([&](const auto&... a) { m.def("estimate", &estimate, estimate_doc.c_str(), a...); },
              args);
 
@@ -249,10 +300,10 @@ void register_estimate(py::module_& m) {
          const py::object& orient, const py::object& viewpoint, const py::object& progress,
          const std::string& refine, const std::optional<std::string>& model,
          const std::string& device, const std::string& precision, bool learned_fit,
-         const py::object& cell_means) {
-        PyEstimateResult r =
-            estimate(points, method, k, std::move(scales), threads, seed, orient, viewpoint,
-                     progress, refine, model, device, precision, learned_fit, cell_means);
+         const py::object& cell_means, bool confidence) {
+        PyEstimateResult r = estimate(points, method, k, std::move(scales), threads, seed, orient,
+                                      viewpoint, progress, refine, model, device, precision,
+                                      learned_fit, cell_means, confidence);
         for (const std::string& w : r.core.warnings)
           if (PyErr_WarnEx(PyExc_RuntimeWarning, ("nhnet: " + w).c_str(), 1) != 0)
             throw py::error_already_set();

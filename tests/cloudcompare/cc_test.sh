@@ -80,6 +80,28 @@ case_normals_match_cli() {
     fail "CloudCompare's mean error $cc_mean is not within 0.1 degree of the CLI's $cli_mean"
 }
 
+# The confidence (issue 57): on by default, the scalar field "NH-Net confidence" equal to
+# nhnet-cli --confidence on CloudCompare's own saved points (ScalarType is float32 as the CLI's
+# column: 1e-6 allows the writers' rounding); -CONFIDENCE OFF adds no field, a bad value is refused.
+case_confidence() {
+  cc -O "$SAMPLE" -NHNET_NORMALS -METHOD mfps -ORIENT none -SAVE_CLOUDS FILE cc.ply
+  expect_rc 0
+  local field
+  field=$(grep -a -m1 -o "property float [^ ]*NH-Net_confidence" cc.ply | awk '{print $3}')
+  [[ -n $field ]] || fail "cc.ply has no NH-Net confidence field"
+  "$CLI" estimate cc.ply cli.ply --method mfps --orient none --confidence --quiet ||
+    fail "nhnet-cli failed"
+  "$PY" "$COMPARE" cc.ply cli.ply --max-deg 0.25 --scalar "$field" confidence --max-abs 1e-6 ||
+    fail "the confidence field differs from nhnet-cli --confidence"
+  cc -O "$SAMPLE" -NHNET_NORMALS -METHOD pca -CONFIDENCE OFF -SAVE_CLOUDS FILE off.ply
+  expect_rc 0
+  ! grep -a -q "confidence" off.ply || fail "-CONFIDENCE OFF still wrote a confidence field"
+  cc -O "$SAMPLE" -NHNET_NORMALS -CONFIDENCE maybe -SAVE_CLOUDS FILE bad.ply
+  expect_rc 1
+  log_has "-CONFIDENCE takes ON or OFF, not MAYBE"
+  [[ ! -e bad.ply ]] || fail "bad.ply written despite the error"
+}
+
 # -METHOD nhnet (the shipped model, found by the core) on the first 3000 sample points: equal to
 # nhnet-cli --method nhnet's within the quantisation bound above.
 case_nhnet_matches_cli() {

@@ -3,11 +3,14 @@
 order (PLY, binary or ASCII, vertex element with scalar properties; or .xyzn text: x y z nx ny nz).
 
     compare_normals.py A B [--signed] [--max-deg D] [--mean-deg M] [--max-offset O] [--min-valid F]
+                       [--scalar NAME_A NAME_B [--floor F] [--max-abs E]]
 
 Angles are unoriented (acos |a.b|) unless --signed (acos a.b: over 90 means opposite signs).
 Prints count, mean, p99, max (degrees) and the largest point offset; exits 1 when a bound is
 exceeded, 2 on unreadable input. Zero or NaN normals in A count as invalid (CloudCompare stores a
 failed point's normal as zero); --min-valid is the share of points that must be valid in A.
+--scalar also compares a per-point property of A (PLY) with one of B (PLY, or the 7th column of
+an .xyz): max(B, F) against A where B is finite (the points that have a normal), at most E apart.
 """
 import argparse
 import sys
@@ -21,7 +24,8 @@ PLY_TYPES = {
 }
 
 
-def read_ply(path):
+def read_columns(path):
+    """The vertex properties of a PLY file: {name: float64 array}."""
     with open(path, "rb") as f:
         if f.readline().strip() != b"ply":
             raise ValueError(f"{path}: not a PLY file")
@@ -55,6 +59,11 @@ def read_ply(path):
             dtype = np.dtype([(n, endian + t) for n, t in props])
             rec = np.frombuffer(f.read(dtype.itemsize * count), dtype=dtype, count=count)
             cols = {name: rec[name].astype(np.float64) for name, _ in props}
+    return cols
+
+
+def read_ply(path):
+    cols = read_columns(path)
     pts = np.stack([cols["x"], cols["y"], cols["z"]], axis=1)
     nrm = np.stack([cols["nx"], cols["ny"], cols["nz"]], axis=1)
     return pts, nrm
@@ -77,6 +86,9 @@ def main():
     ap.add_argument("--max-offset", type=float, default=1e-5,
                     help="largest allowed point distance relative to the bbox diagonal")
     ap.add_argument("--min-valid", type=float, default=0.999)
+    ap.add_argument("--scalar", nargs=2, metavar=("NAME_A", "NAME_B"))
+    ap.add_argument("--floor", type=float, default=-np.inf)
+    ap.add_argument("--max-abs", type=float, default=0.0)
     args = ap.parse_args()
     try:
         pa, na = read(args.a)
@@ -102,7 +114,22 @@ def main():
         ok = ok and deg.max() <= args.max_deg
     if args.mean_deg is not None:
         ok = ok and deg.mean() <= args.mean_deg
+    if args.scalar:
+        ok = compare_scalar(args) and ok
     return 0 if ok else 1
+
+
+def compare_scalar(args):
+    """--scalar: A's property against max(B's, floor) where B's is finite."""
+    a = read_columns(args.a)[args.scalar[0]]
+    b = (read_columns(args.b)[args.scalar[1]] if args.b.endswith(".ply")
+         else np.loadtxt(args.b, ndmin=2)[:, 6])
+    have = np.isfinite(b)
+    diff = np.abs(a[have] - np.maximum(b[have], args.floor))
+    print(f"{args.scalar[0]} vs {args.scalar[1]}: {have.sum()} values, max |diff| {diff.max():.2e}, "
+          f"range {b[have].min():.3f}-{b[have].max():.3f}")
+    # a constant field would pass a copy of anything constant: the values must spread
+    return bool(have.sum() > 0 and diff.max() <= args.max_abs and np.ptp(b[have]) > 0.1)
 
 
 if __name__ == "__main__":

@@ -41,9 +41,10 @@ mls() { "$T/ml/meshlabserver" "$@" >"$T/last.log" 2>&1; }
 
 # An .mlx script running "Estimate normals (NH-Net)". meshlabserver needs every parameter, in
 # the filter's order (it asserts otherwise), and enum_cardinality on enums.
-# estimate_mlx METHOD K SCALES ORIENTATION [MODEL [VIEWPOINT [PRECISION]]]  (method 0 = MFPS,
-# 1 = PCA, 2 = NH-Net; orientation 0 = keep, 1 = viewpoint (default the origin), 2 = MST,
-# 3 = none, 4 = auto, 5 = up; precision 0 = auto, 1 = float32, 2 = bfloat16)
+# estimate_mlx METHOD K SCALES ORIENTATION [MODEL [VIEWPOINT [PRECISION [CONFIDENCE]]]]  (method
+# 0 = MFPS, 1 = PCA, 2 = NH-Net; orientation 0 = keep, 1 = viewpoint (default the origin), 2 = MST,
+# 3 = none, 4 = auto, 5 = up; precision 0 = auto, 1 = float32, 2 = bfloat16; confidence as vertex
+# quality true / false, default false)
 estimate_mlx() {
   local vp=${6:-}
   [[ -n $vp ]] || vp='x="0" y="0" z="0"'
@@ -59,6 +60,7 @@ estimate_mlx() {
    <Param type="RichInt" name="seed" value="1"/>
    <Param type="RichString" name="model" value="${5:-}"/>
    <Param type="RichEnum" name="precision" value="${7:-0}" enum_cardinality="3"/>
+   <Param type="RichBool" name="confidence" value="${8:-false}"/>
   </filter>
 MLX
 }
@@ -124,6 +126,23 @@ same_as_cli() {
 # 2. The whole noisy sample (MFPS, the default) and, NH-Net being slower, its first 3000 points.
 same_as_cli mfps 0 20000
 same_as_cli nhnet 2 3000
+
+# 2a. The confidence as vertex quality (issue 57): with the parameter on, the quality MeshLab
+# saves is nhnet-cli --confidence's column, raised to the floor of 0.001, on the whole sample
+# (in.ply from same_as_cli mfps: its 20000 points); both are the same float32 of the same
+# deterministic core, so 1e-6 only allows the PLY writers' rounding.
+estimate_mlx 0 0 auto 3 "" "" 0 true | script >conf.mlx
+if mls -i in.ply -o ml_conf.ply -m vn vq -s conf.mlx; then
+  "$CLI" estimate in.ply cli_conf.ply --method mfps --orient none --confidence --quiet --overwrite
+  if /usr/bin/python3 "$SRC/tests/cloudcompare/compare_normals.py" ml_conf.ply cli_conf.ply \
+    --max-deg 0.01 --scalar quality confidence --floor 0.001 --max-abs 1e-6; then
+    pass "confidence: vertex quality = nhnet-cli --confidence (floor 0.001)"
+  else
+    fail "confidence: vertex quality differs from nhnet-cli --confidence"
+  fi
+else
+  fail "confidence estimate exited $?"; cat last.log
+fi
 
 # ml_run IN OUT: "Estimate normals (NH-Net)" with the plugin's default parameters.
 ml_run() {

@@ -172,6 +172,7 @@ MLX='<!DOCTYPE FilterScript>
    <Param type="RichInt" name="seed" value="1"/>
    <Param type="RichString" name="model" value=""/>
    <Param type="RichEnum" name="precision" value="0" enum_cardinality="3"/>
+   <Param type="RichBool" name="confidence" value="false"/>
   </filter>
 </FilterScript>'
 

@@ -146,6 +146,35 @@ TEST(PclNormalEstimation, IndicesSelectOutputRowsButNeighboursComeFromTheWholeCl
   }
 }
 
+// setComputeConfidence: one confidence per output point (per index), the core's for that row,
+// NaN exactly where the normal is NaN; off (the default) gives none.
+TEST(PclNormalEstimation, ConfidenceFollowsTheIndicesAndIsOffByDefault) {
+  const Cloud::Ptr cloud = sphere_cloud(3000);
+  pcl::IndicesPtr idx(new pcl::Indices);
+  for (int i = 5; i < 3000; i += 7) idx->push_back(i);
+  idx->push_back(13);  // a NaN point
+  nhnet::pcl::NHNetNormalEstimation<pcl::PointXYZ, pcl::Normal> ne(2);
+  ne.setInputCloud(cloud);
+  NormalCloud plain;
+  ne.compute(plain);
+  EXPECT_TRUE(ne.getConfidence().empty());
+  ne.setComputeConfidence(true);
+  ne.setIndices(idx);
+  NormalCloud got;
+  ne.compute(got);
+  const std::vector<float>& c = ne.getConfidence();
+  ASSERT_EQ(c.size(), idx->size());
+  const Eigen::VectorXd& core = ne.getLastResult().confidence;
+  ASSERT_EQ(core.size(), Eigen::Index(cloud->size()));
+  for (std::size_t j = 0; j < c.size(); ++j) {
+    ASSERT_EQ(std::isnan(c[j]), is_nan_normal(got[j])) << "index " << j;
+    if (std::isnan(c[j])) continue;
+    EXPECT_EQ(c[j], float(core[Eigen::Index((*idx)[j])]));
+    EXPECT_GE(c[j], 0.f);
+    EXPECT_LE(c[j], 1.f);
+  }
+}
+
 TEST(PclNormalEstimation, OrganizedCloudKeepsWidthAndHeightAndDenseFlag) {
   Cloud::Ptr cloud(new Cloud(40, 25));  // a 40 x 25 organized grid on the plane z = 3 - 0.2 x
   for (std::uint32_t r = 0; r < cloud->height; ++r)

@@ -470,10 +470,14 @@ pub struct NhE57ScanIn {
     pub head: NhE57ScanHead,
     pub rgb: *const u16,
     pub rgb_max: i64,
+    /// The normals' confidence (nhnet's `nhnet:confidence` field), or null.
+    pub confidence: *const f32,
 }
 
 const NOR_NAMESPACE: &str = "nor";
 const NOR_URL: &str = "http://www.libe57.org/E57_NOR_surface_normals.txt";
+const NHNET_NAMESPACE: &str = "nhnet";
+const NHNET_URL: &str = "urn:nhnet:e57:confidence";
 
 fn prototype(s: &NhE57ScanIn) -> Vec<Record> {
     let double = || RecordDataType::Double { min: None, max: None };
@@ -500,6 +504,13 @@ fn prototype(s: &NhE57ScanIn) -> Vec<Record> {
             p.push(Record { name, data_type: single() });
         }
     }
+    if !s.confidence.is_null() {
+        let name = RecordName::Unknown {
+            namespace: NHNET_NAMESPACE.to_string(),
+            name: "confidence".to_string(),
+        };
+        p.push(Record { name, data_type: single() });
+    }
     p
 }
 
@@ -523,6 +534,7 @@ unsafe fn write_scan<T: std::io::Read + std::io::Write + std::io::Seek>(
     let intensity = slice(h.intensity, h.n);
     let rgb = slice(s.rgb, h.n * 3);
     let normals = slice(h.normals, h.n * 3);
+    let confidence = slice(s.confidence, h.n);
     for i in 0..h.n {
         let mut v: Vec<RecordValue> = xyz[3 * i..3 * i + 3].iter().map(|c| RecordValue::Double(*c)).collect();
         if !intensity.is_empty() {
@@ -533,6 +545,9 @@ unsafe fn write_scan<T: std::io::Read + std::io::Write + std::io::Seek>(
         }
         if !normals.is_empty() {
             v.extend(normals[3 * i..3 * i + 3].iter().map(|c| RecordValue::Single(*c)));
+        }
+        if !confidence.is_empty() {
+            v.push(RecordValue::Single(confidence[i]));
         }
         pc.add_point(v).map_err(|e| e.to_string())?;
     }
@@ -560,6 +575,11 @@ pub unsafe extern "C" fn nhnet_e57_write(
             if scans.iter().any(|s| !s.head.normals.is_null()) {
                 writer
                     .register_extension(Extension::new(NOR_NAMESPACE, NOR_URL))
+                    .map_err(|e| e.to_string())?;
+            }
+            if scans.iter().any(|s| !s.confidence.is_null()) {
+                writer
+                    .register_extension(Extension::new(NHNET_NAMESPACE, NHNET_URL))
                     .map_err(|e| e.to_string())?;
             }
             for (i, s) in scans.iter().enumerate() {
@@ -611,7 +631,7 @@ mod tests {
             NhBuf { len, cap },
             NhE57ScanHead { name_len, has_pose, quat, trans, n, xyz, intensity, normals },
             NhE57ScanView { rgb, color_max, dropped },
-            NhE57ScanIn { rgb, rgb_max }
+            NhE57ScanIn { rgb, rgb_max, confidence }
         );
         let header = asserted(include_str!("../../src/io/formats_ffi.hpp"));
         for (s, f, want) in &header {

@@ -7,7 +7,8 @@
 // extension (normalX/Y/Z) the input normals. A pose whose quaternion is not a rotation is an
 // InputError.
 // Writer: one scan per sensor (its points put back into the sensor's frame, the pose written),
-// else one scan; intensity and red/green/blue extras, the normals as the "nor" extension.
+// else one scan; intensity and red/green/blue extras, the normals as the "nor" extension, the
+// normals' confidence (Cloud::confidence) as the field "confidence" of the "nhnet" extension.
 #include "io/detail.hpp"
 #include "io/formats_ffi.hpp"
 
@@ -125,7 +126,7 @@ struct ScanOut {
   Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
   Eigen::Vector3d t = Eigen::Vector3d::Zero();
   std::vector<double> xyz;
-  std::vector<float> intensity, normals;
+  std::vector<float> intensity, normals, confidence;
   std::vector<uint16_t> rgb;
 };
 
@@ -176,6 +177,7 @@ void fill_scans(const std::string& path, const Cloud& cloud, std::vector<ScanOut
       const Eigen::Vector3d n = rt * cloud.normals.row(i).transpose();
       s.normals.insert(s.normals.end(), {float(n.x()), float(n.y()), float(n.z())});
     }
+    if (cloud.confidence.size() != 0) s.confidence.push_back(float(cloud.confidence[i]));
     if (intensity) s.intensity.push_back(float(intensity->values[size_t(i)]));
     for (int c = 0; c < 3 && color; ++c)
       s.rgb.push_back(uint16_t(std::clamp(rgb[c]->values[size_t(i)], 0.0, 65535.0)));
@@ -206,6 +208,7 @@ void write_e57(Sink& sink, const Cloud& cloud, const std::string& path) {
     v.rgb = s.rgb.empty() ? nullptr : s.rgb.data();
     v.rgb_max = rgb_max;
     h.normals = cloud.has_normals() ? s.normals.data() : nullptr;
+    v.confidence = cloud.confidence.size() != 0 ? s.confidence.data() : nullptr;
     in.push_back(v);
   }
   RustBuf out;

@@ -54,6 +54,7 @@ struct NhE57ScanIn {
   NhE57ScanHead head;
   const uint16_t* rgb;
   int64_t rgb_max;
+  const float* confidence;  ///< Cloud::confidence, or null
 };
 int nhnet_e57_write(const NhE57ScanIn* scans, size_t count, NhBuf* out, char* err, size_t err_cap);
 
@@ -71,8 +72,8 @@ static_assert(sizeof(NhE57ScanHead) == 112 && offsetof(NhE57ScanHead, name_len) 
               offsetof(NhE57ScanHead, normals) == 104);
 static_assert(sizeof(NhE57ScanView) == 136 && offsetof(NhE57ScanView, rgb) == 112 &&
               offsetof(NhE57ScanView, color_max) == 120 && offsetof(NhE57ScanView, dropped) == 128);
-static_assert(sizeof(NhE57ScanIn) == 128 && offsetof(NhE57ScanIn, rgb) == 112 &&
-              offsetof(NhE57ScanIn, rgb_max) == 120);
+static_assert(sizeof(NhE57ScanIn) == 136 && offsetof(NhE57ScanIn, rgb) == 112 &&
+              offsetof(NhE57ScanIn, rgb_max) == 120 && offsetof(NhE57ScanIn, confidence) == 128);
 
 namespace nhnet::io_detail {
 

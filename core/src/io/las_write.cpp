@@ -167,21 +167,21 @@ struct NewField {
   Eigen::Index stride;
 };
 
-/// Normal column k written into an existing float field of the records, if there is one.
-bool overwrite_normal(const Cloud& cloud, int k, LasOut& out) {
-  static const char* names[] = {"normalx", "normaly", "normalz"};
+/// A column (`values`, every `stride`-th) written into an existing float field of the records
+/// named `lower` (compared lower-case), if there is one.
+bool overwrite_field(const Cloud& cloud, const char* lower, const double* values,
+                     Eigen::Index stride, LasOut& out) {
   for (const LasExtraField& f : out.extras) {
     std::string n = f.name;
     std::transform(n.begin(), n.end(), n.begin(),
                    [](unsigned char c) { return char(std::tolower(c)); });
-    if (n != names[k] || (f.data_type != 9 && f.data_type != 10) || (f.descriptor[3] & 0x18))
-      continue;
+    if (n != lower || (f.data_type != 9 && f.data_type != 10) || (f.descriptor[3] & 0x18)) continue;
     for (Eigen::Index i = 0; i < cloud.size(); ++i) {
       char* r = out.records.data() + size_t(i) * out.record_length + f.offset;
       if (f.data_type == 9)
-        put_le<float>(r, float(cloud.normals(i, k)));
+        put_le<float>(r, float(values[i * stride]));
       else
-        put_le<double>(r, cloud.normals(i, k));
+        put_le<double>(r, values[i * stride]);
     }
     return true;
   }
@@ -196,11 +196,18 @@ std::vector<NewField> new_fields(const Cloud& cloud, LasOut& out) {
   for (const LasExtraField& f : out.extras) used.push_back(f.name);
   if (cloud.has_normals()) {
     static const char* names[] = {"NormalX", "NormalY", "NormalZ"};
+    static const char* lower[] = {"normalx", "normaly", "normalz"};
     for (int k = 0; k < 3; ++k) {
-      if (!out.fresh && overwrite_normal(cloud, k, out)) continue;
+      if (!out.fresh && overwrite_field(cloud, lower[k], cloud.normals.data() + k, 3, out))
+        continue;
       add.push_back({names[k], 9, cloud.normals.data() + k, 3});
       used.emplace_back(names[k]);
     }
+  }
+  if (cloud.confidence.size() != 0) {  // float32 extra bytes, as PDAL / CloudCompare read them
+    used.emplace_back("Confidence");   // an input extra of that name is replaced
+    if (out.fresh || !overwrite_field(cloud, "confidence", cloud.confidence.data(), 1, out))
+      add.push_back({"Confidence", 9, cloud.confidence.data(), 1});
   }
   for (const ExtraProperty& e : cloud.extras) {
     if (e.name.size() > 32 || std::find(used.begin(), used.end(), e.name) != used.end()) continue;

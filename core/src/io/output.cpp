@@ -27,6 +27,11 @@ void check_writable(const std::string& path, const Cloud& cloud) {
   if (cloud.normals.rows() != 0 && cloud.normals.rows() != n)
     output_error(path, "cloud has " + std::to_string(cloud.normals.rows()) + " normals for " +
                            std::to_string(n) + " points");
+  if (cloud.confidence.size() != 0 && cloud.confidence.size() != n)
+    output_error(path, "cloud has " + std::to_string(cloud.confidence.size()) +
+                           " confidences for " + std::to_string(n) + " points");
+  if (cloud.confidence.size() != 0 && !cloud.has_normals())
+    output_error(path, "cloud has confidences but no normals");
   for (const ExtraProperty& e : cloud.extras) {
     if (e.values.size() != size_t(n))
       output_error(path, "extra property '" + e.name + "' has " + std::to_string(e.values.size()) +
@@ -65,6 +70,10 @@ std::vector<Column> cloud_columns(const Cloud& cloud, const char* const (&normal
       cols.push_back({normal_names[k], ScalarType::Float32, cloud.normals.data(), k, 3});
       reserved.emplace_back(normal_names[k]);
     }
+  }
+  if (cloud.confidence.size() != 0) {  // replaces an input's extra of that name
+    cols.push_back({"confidence", ScalarType::Float32, cloud.confidence.data(), 0, 1});
+    reserved.emplace_back("confidence");
   }
   for (const ExtraProperty* e : writable_extras(cloud, reserved))
     cols.push_back({e->name, e->type, e->values.data(), 0, 1});

@@ -168,6 +168,10 @@ void write_xyz(Sink& sink, const Cloud& cloud) {
       out += ' ';
       append_number(cloud.normals(i, k), ScalarType::Float64, out);
     }
+    if (cloud.confidence.size() != 0) {
+      out += ' ';
+      append_number(cloud.confidence[i], ScalarType::Float32, out);
+    }
     out += '\n';
     if (out.size() >= (size_t(1) << 16)) {
       sink.write(out);

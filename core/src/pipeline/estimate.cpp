@@ -12,6 +12,7 @@
 #include "nhnet/geometry/radial.hpp"
 #include "nhnet/geometry/scales.hpp"
 #include "nhnet/learned/candidate_mix.hpp"
+#include "nhnet/learned/confidence.hpp"
 #include "nhnet/learned/learned_fit.hpp"
 #include "nhnet/neighbors/neighbors.hpp"
 #include "pipeline/cell_means.hpp"
@@ -683,9 +684,19 @@ EstimateResult estimate_points(const Points& points, const EstimateOptions& opti
   return estimate_cloud(points, options, overrides);
 }
 
-EstimateResult estimate_normals_keeping_means(const Points& points, const EstimateOptions& options,
-                                              MeansRun* keep) {
-  check_options(options);
+void add_confidence(const Points& points, const EstimateOptions& options, EstimateResult& res) {
+  if (!options.confidence) return;
+  const ConfidenceModel model = options.method == Method::Pca    ? ConfidenceModel::Pca
+                                : options.method == Method::Mfps ? ConfidenceModel::Mfps
+                                                                 : ConfidenceModel::NhNet;
+  res.confidence = confidence_from_features(
+      confidence_features(points, res.normals, res.curvature, res.noise_ratio, options.run), model);
+}
+
+namespace {
+
+EstimateResult estimate_unscored(const Points& points, const EstimateOptions& options,
+                                 MeansRun* keep) {
   EstimateResult res;
   TileOverrides measured;
   Prepared prepared;
@@ -697,6 +708,20 @@ EstimateResult estimate_normals_keeping_means(const Points& points, const Estima
   // being built again.
   measured.prepared = &prepared;
   return estimate_points(points, rest, measured);
+}
+
+}  // namespace
+
+EstimateResult estimate_normals_keeping_means(const Points& points, const EstimateOptions& options,
+                                              MeansRun* keep) {
+  check_options(options);
+  EstimateOptions estimate = options;
+  if (options.confidence) estimate.run = narrow(options.run, 0, 0.97);
+  EstimateResult res = estimate_unscored(points, estimate, keep);
+  EstimateOptions scored = options;
+  scored.run = narrow(options.run, 0.97, 1);
+  add_confidence(points, scored, res);
+  return res;
 }
 
 }  // namespace detail

@@ -33,6 +33,10 @@ struct TileOverrides {
   struct Prepared* prepared = nullptr;
 };
 
+/// With options.confidence, res.confidence from res's normals, curvatures and noise ratio over
+/// `points` (learned/confidence.hpp, the weights of options.method); else nothing.
+void add_confidence(const Points& points, const EstimateOptions& options, EstimateResult& res);
+
 /// A result for n points with NaN normals and curvatures and nothing valid yet.
 EstimateResult empty_result(Eigen::Index n);
 

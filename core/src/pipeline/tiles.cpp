@@ -212,10 +212,11 @@ EstimateResult estimate_tile(const Points& pts, const EstimateOptions& options,
   ov.spacing = decisions.spacing;
   ov.variation_threshold = decisions.variation_threshold;
   EstimateResult res;
-  if (decisions.cell_means &&
-      detail::tile_through_cell_means(pts, options, decisions.noise_ratio, decisions.spacing, res))
-    return res;
-  return detail::estimate_cloud(pts, options, ov);
+  if (!decisions.cell_means ||
+      !detail::tile_through_cell_means(pts, options, decisions.noise_ratio, decisions.spacing, res))
+    res = detail::estimate_cloud(pts, options, ov);
+  detail::add_confidence(pts, options, res);  // over the halo too: the own points' neighbours
+  return res;
 }
 
 }  // namespace nhnet

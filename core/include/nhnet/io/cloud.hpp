@@ -40,7 +40,12 @@ struct Cloud {
   Points points;                      ///< N x 3 coordinates (may contain non-finite rows)
   Normals normals;                    ///< N x 3 normals, or 0 x 3 when the file has none
   std::vector<ExtraProperty> extras;  ///< other per-point properties, in file order
-  std::vector<Sensor> sensors;        ///< sensors the file names; empty = none known
+  /// N confidences of the normals (EstimateResult::confidence), or empty. Written by every
+  /// writer as its format's own field (PLY / PCD `confidence`, LAS / LAZ extra bytes
+  /// `Confidence`, E57 `nhnet:confidence`, XYZ a seventh column after the normals); readers
+  /// leave it empty (a file's confidence comes back as an extra).
+  Eigen::VectorXd confidence;
+  std::vector<Sensor> sensors;  ///< sensors the file names; empty = none known
   std::vector<int32_t>
       sensor_index;         ///< per point, index into sensors; empty = all taken by sensors[0]
   int64_t grid_width = 0;   ///< organized grid (depth image) width, row-major; 0 = unorganized

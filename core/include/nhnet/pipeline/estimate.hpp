@@ -22,6 +22,11 @@ enum class Method {
   NhNet,  ///< MFPS refined by the trained NH-Net (paper Sec. 5; needs libtorch, nhnet_model.hpp)
 };
 
+/// The plugins' default for EstimateOptions::confidence (the CLI's, Python's and the library's is
+/// the struct's, off: an extra output). MeshLab keeps it as vertex quality, which Screened
+/// Poisson takes as a confidence, and CloudCompare as a scalar field: on.
+constexpr bool kPluginConfidence = true;
+
 /// Parses "pca" / "mfps" / "nhnet"; throws InvalidOptions otherwise.
 Method method_from_string(const std::string& name);
 const char* to_string(Method method);
@@ -113,6 +118,9 @@ struct EstimateOptions {
   /// none. Returned only by a run in one piece over distinct finite points, not through cell
   /// means.
   int neighbours = 0;
+  /// Also return each normal's confidence (EstimateResult::confidence; learned/confidence.hpp):
+  /// a second, small neighbour search over the result, about 1-5 % more time.
+  bool confidence = false;
   /// Threads (0 = all cores) and progress/cancel callback.
   RunContext run;
 };
@@ -127,6 +135,10 @@ struct EstimateResult {
   /// N surface variations lambda_min / (lambda_1 + lambda_2 + lambda_3) of each point's PCA
   /// neighbourhood (k_used points), in [0, 1/3]: what PCL calls "curvature". NaN where failed.
   Eigen::VectorXd curvature;
+  /// With EstimateOptions::confidence: N confidences in [0, 1], the chance that the normal is
+  /// within 30 degrees of the true one, judged from its neighbourhood (learned/confidence.hpp);
+  /// NaN where failed. Empty otherwise.
+  Eigen::VectorXd confidence;
   /// Points classified as candidates near sharp features (MFPS only).
   int64_t candidates = 0;
   /// N flags (MFPS and NH-Net; empty for PCA): 1 = the point was a candidate.

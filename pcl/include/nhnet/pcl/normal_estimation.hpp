@@ -1,7 +1,8 @@
 // nhnet::pcl::NHNetNormalEstimation: the nhnet estimator behind the interface of
 // pcl::NormalEstimationOMP, so PCL code switches by changing one type name. This is the only
 // nhnet header that includes PCL; it is a thin adapter over nhnet::estimate_normals (copy the
-// points in, call the core, copy normals and curvature out, flip towards the viewpoint).
+// points in, call the core, copy normals and curvature out, flip towards the viewpoint; with
+// setComputeConfidence(true) also each normal's confidence, getConfidence()).
 //
 //   pcl::PointCloud<pcl::PointXYZ>::Ptr cloud = ...;
 //   nhnet::pcl::NHNetNormalEstimation<pcl::PointXYZ, pcl::Normal> ne;
@@ -96,6 +97,15 @@ class NHNetNormalEstimation : public ::pcl::PCLBase<PointInT> {
   /// Use the input cloud's sensor_origin_ as the viewpoint (PCL's default behaviour too).
   void useSensorOriginAsViewPoint() { use_sensor_origin_ = true; }
 
+  /// Also compute each normal's confidence (getConfidence(); default off, the core's
+  /// EstimateOptions::confidence).
+  void setComputeConfidence(bool on) { options_.confidence = on; }
+  bool getComputeConfidence() const { return options_.confidence; }
+  /// After compute() with setComputeConfidence(true): per output point (per index), the chance in
+  /// [0, 1] that its normal is within 30 degrees of the true one, judged from its neighbourhood
+  /// (nhnet/learned/confidence.hpp); NaN where the normal is NaN. Empty otherwise.
+  const std::vector<float>& getConfidence() const { return confidence_; }
+
   /// Statistics of the last compute(): failed count, noise ratio, k and scales used, warnings.
   const EstimateResult& getLastResult() const { return result_; }
 
@@ -142,9 +152,12 @@ class NHNetNormalEstimation : public ::pcl::PCLBase<PointInT> {
     }
 
     const float nan = std::numeric_limits<float>::quiet_NaN();
+    const bool scored = result_.confidence.size() == points.rows();
+    confidence_.assign(options_.confidence ? count : 0, nan);
     for (std::size_t j = 0; j < count; ++j) {
       const auto i = Eigen::Index((*indices_)[j]);
       PointOutT& out = output[j];
+      if (scored && result_.valid[std::size_t(i)]) confidence_[j] = float(result_.confidence[i]);
       const PointInT& p = (*input_)[std::size_t(i)];
       if (!result_.valid[std::size_t(i)]) {
         out.normal_x = out.normal_y = out.normal_z = out.curvature = nan;
@@ -169,6 +182,7 @@ class NHNetNormalEstimation : public ::pcl::PCLBase<PointInT> {
  private:
   EstimateOptions options_;
   EstimateResult result_;
+  std::vector<float> confidence_;
   KdTreePtr tree_;
   float vpx_ = 0, vpy_ = 0, vpz_ = 0;
   bool use_sensor_origin_ = true;
