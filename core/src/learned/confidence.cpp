@@ -43,13 +43,14 @@ const ConfidenceWeights& weights_of(ConfidenceModel model) {
 
 using Row = Eigen::Matrix<double, 1, kConfidenceFeatures>;
 
-/// The features of one point from its neighbours' rows (`idx`, self first) among `pts` / `nrm`.
-Row point_features(const Points& pts, const Normals& nrm, const std::vector<int32_t>& idx,
+/// The features of one point from its neighbours' rows (`idx`, `k` of them, self first) among
+/// `pts` / `nrm`.
+Row point_features(const Points& pts, const Normals& nrm, const int32_t* idx, int k,
                    double variation, double log_noise) {
   const Eigen::Index self = idx[0];
   const Eigen::RowVector3d p = pts.row(self), n = nrm.row(self);
-  const size_t m = idx.size() - 1;
-  std::vector<double> dis(m);
+  const size_t m = size_t(k - 1);
+  std::array<double, kConfidenceNeighbours> dis{};
   Eigen::RowVector3d mean = Eigen::RowVector3d::Zero();
   double height = 0, dist = 0;
   for (size_t j = 0; j < m; ++j) {
@@ -62,10 +63,11 @@ Row point_features(const Points& pts, const Normals& nrm, const std::vector<int3
   Row f;
   f[0] = 3 * variation;
   double sum = 0;
-  for (double d : dis) sum += d;
+  for (size_t j = 0; j < m; ++j) sum += dis[j];
   f[1] = m ? sum / double(m) : 0;
-  f[2] = m ? *std::max_element(dis.begin(), dis.end()) : 0;
-  if (m) std::nth_element(dis.begin(), dis.begin() + std::ptrdiff_t(m / 2), dis.end());
+  const auto end = dis.begin() + std::ptrdiff_t(m);
+  f[2] = m ? *std::max_element(dis.begin(), end) : 0;
+  if (m) std::nth_element(dis.begin(), dis.begin() + std::ptrdiff_t(m / 2), end);
   f[3] = m ? dis[m / 2] : 0;  // m is odd (kConfidenceNeighbours - 1): the median
   f[4] = height / std::max(dist, 1e-12);
   mean /= double(std::max<size_t>(m, 1));
@@ -74,7 +76,8 @@ Row point_features(const Points& pts, const Normals& nrm, const std::vector<int3
     const Eigen::RowVector3d c = pts.row(idx[j + 1]) - p - mean;
     cov += c.transpose() * c;
   }
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig;
+  eig.computeDirect(cov);
   const Eigen::Vector3d lambda = eig.eigenvalues();  // ascending
   f[5] = 1 - std::abs(n.dot(eig.eigenvectors().col(0).transpose()));
   f[6] = 3 * lambda[0] / std::max(lambda.sum(), 1e-30);
@@ -100,9 +103,35 @@ double network(const Row& f, const ConfidenceWeights& w) {
 
 }  // namespace
 
+namespace {
+
+/// Fills the rows of `out` listed in `rows` from a neighbour table over `pts` / `nrm` (`knn`
+/// row r belongs to rows[r]; self first, moved there when a copy came first).
+void fill_features(const Points& pts, const Normals& nrm, IndexMatrix& knn,
+                   const std::vector<int64_t>& rows, const Eigen::VectorXd& curvature,
+                   double noise_ratio, const RunContext& run, Eigen::MatrixXd& out) {
+  const int k = int(std::min<Eigen::Index>(knn.cols(), kConfidenceNeighbours));
+  const double log_noise = std::log(std::max(noise_ratio, 1e-4));
+  detail::Progress progress(run.progress);
+  if (run.progress) progress.stage("confidence", 0, 1);
+  detail::parallel_for(pts.rows(), run.threads, run.progress ? &progress : nullptr, [&](int64_t r) {
+    int32_t* idx = knn.row(r).data();
+    int32_t* self = std::find(idx, idx + k, int32_t(r));  // self first even among exact copies
+    if (self != idx + k)
+      std::iter_swap(idx, self);
+    else
+      idx[0] = int32_t(r);
+    const Eigen::Index row = rows[size_t(r)];
+    const double v = curvature.size() == out.rows() ? curvature[row] : 0;
+    out.row(row) = point_features(pts, nrm, idx, k, std::isfinite(v) ? v : 0, log_noise);
+  });
+}
+
+}  // namespace
+
 Eigen::MatrixXd confidence_features(const Points& points, const Normals& normals,
                                     const Eigen::VectorXd& curvature, double noise_ratio,
-                                    const RunContext& run) {
+                                    const RunContext& run, const IndexMatrix* neighbours) {
   const Eigen::Index n = points.rows();
   Eigen::MatrixXd out =
       Eigen::MatrixXd::Constant(n, kConfidenceFeatures, std::numeric_limits<double>::quiet_NaN());
@@ -110,41 +139,31 @@ Eigen::MatrixXd confidence_features(const Points& points, const Normals& normals
   for (Eigen::Index i = 0; i < n; ++i)
     if (normals.row(i).allFinite()) rows.push_back(i);
   if (rows.size() < 2) return out;
+  if (neighbours && neighbours->rows() == n && Eigen::Index(rows.size()) == n &&
+      neighbours->cols() >= std::min<Eigen::Index>(kConfidenceNeighbours, n)) {
+    IndexMatrix knn = neighbours->leftCols(std::min<Eigen::Index>(kConfidenceNeighbours, n));
+    fill_features(points, normals, knn, rows, curvature, noise_ratio, run, out);
+    return out;
+  }
   Points pts(Eigen::Index(rows.size()), 3);
   Normals nrm(Eigen::Index(rows.size()), 3);
   for (size_t r = 0; r < rows.size(); ++r) {
     pts.row(Eigen::Index(r)) = points.row(rows[r]);
     nrm.row(Eigen::Index(r)) = normals.row(rows[r]);
   }
-  const Neighbors tree(pts);
-  const int k = int(std::min<Eigen::Index>(kConfidenceNeighbours, pts.rows()));
-  const double log_noise = std::log(std::max(noise_ratio, 1e-4));
-  detail::Progress progress(run.progress);
-  if (run.progress) progress.stage("confidence", 0, 1);
-  detail::parallel_for(pts.rows(), run.threads, run.progress ? &progress : nullptr, [&](int64_t r) {
-    thread_local std::vector<int32_t> idx;
-    thread_local std::vector<float> d2;
-    tree.knn(pts.row(r).transpose(), k, idx, d2);
-    // self first even among exact copies
-    const auto self = std::find(idx.begin(), idx.end(), int32_t(r));
-    if (self != idx.end())
-      std::iter_swap(idx.begin(), self);
-    else
-      idx[0] = int32_t(r);
-    const Eigen::Index row = rows[size_t(r)];
-    const double v = curvature.size() == n ? curvature[row] : 0;
-    out.row(row) = point_features(pts, nrm, idx, std::isfinite(v) ? v : 0, log_noise);
-  });
+  IndexMatrix knn;  // in the tree's leaf order: the batched search the other stages use
+  Neighbors(pts).knn_all(kConfidenceNeighbours, knn, nullptr, detail::narrow(run, 0, 0.6));
+  fill_features(pts, nrm, knn, rows, curvature, noise_ratio, detail::narrow(run, 0.6, 1), out);
   return out;
 }
 
 Eigen::VectorXd confidence_from_features(const Eigen::MatrixXd& features, ConfidenceModel model) {
   const ConfidenceWeights& w = weights_of(model);
   Eigen::VectorXd out(features.rows());
-  for (Eigen::Index i = 0; i < features.rows(); ++i) {
+  detail::parallel_for(features.rows(), 0, nullptr, [&](int64_t i) {
     const Row f = features.row(i);
     out[i] = f.allFinite() ? network(f, w) : std::numeric_limits<double>::quiet_NaN();
-  }
+  });
   return out;
 }
 

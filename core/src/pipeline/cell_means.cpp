@@ -15,6 +15,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <utility>
 #include <vector>
 
@@ -101,17 +102,18 @@ NearestMeans nearest_means(const Points& pts, const Points& means, const RunCont
   return out;
 }
 
-/// Point c's normal and curvature from its nearest means' valid ones (inverse-distance weights,
-/// each normal turned to the side of the nearest valid one); returns that mean's row, or -1
-/// (nothing written) when none is valid.
+/// Point c's normal, curvature and (when the means have one) confidence from its nearest means'
+/// valid ones (inverse-distance weights, each normal turned to the side of the nearest valid
+/// one); returns that mean's row, or -1 (nothing written) when none is valid.
 int32_t blend_means(const NearestMeans& near, size_t c, const EstimateResult& of_means,
-                    Eigen::RowVector3d& normal, double& curvature) {
+                    Eigen::RowVector3d& normal, double& curvature, double& confidence) {
   constexpr int kn = NearestMeans::kNearest;
   const int32_t side = near.nearest_valid(c, of_means);
   if (side < 0) return -1;
   const Eigen::RowVector3d first = of_means.normals.row(side);
   Eigen::RowVector3d sum = Eigen::RowVector3d::Zero();
-  double wsum = 0, csum = 0;
+  const bool scored = of_means.confidence.size() == of_means.normals.rows();
+  double wsum = 0, csum = 0, qsum = 0;
   for (int j = 0; j < kn; ++j) {
     const int32_t m = near.rows[c * kn + size_t(j)];
     const double w = near.weights[c * kn + size_t(j)];
@@ -119,10 +121,12 @@ int32_t blend_means(const NearestMeans& near, size_t c, const EstimateResult& of
     const Eigen::RowVector3d n = of_means.normals.row(m);
     sum += (n.dot(first) < 0 ? -w : w) * n;
     csum += w * of_means.curvature[m];
+    if (scored) qsum += w * of_means.confidence[m];
     wsum += w;
   }
   normal = sum.normalized();  // the side's own normal has weight > 0: the sum is not zero
   curvature = csum / wsum;
+  if (scored) confidence = qsum / wsum;
   return side;
 }
 
@@ -132,11 +136,15 @@ EstimateResult from_means(const Points& points, const Canonical& canon, const Ne
                           EstimateResult&& of_means, std::vector<int32_t>& sides) {
   EstimateResult res = empty_result(points.rows());
   if (!of_means.candidate.empty()) res.candidate.assign(size_t(points.rows()), 0);
+  if (of_means.confidence.size() != 0)
+    res.confidence.setConstant(points.rows(), std::numeric_limits<double>::quiet_NaN());
+  double unscored = 0;  // the confidence's place when the means have none
   sides.assign(canon.rows.size(), -1);
   for (size_t c = 0; c < canon.rows.size(); ++c) {
     const Eigen::Index row = Eigen::Index(canon.rows[c]);
     Eigen::RowVector3d normal;
-    const int32_t side = blend_means(nearest, c, of_means, normal, res.curvature[row]);
+    double& confidence = res.confidence.size() != 0 ? res.confidence[row] : unscored;
+    const int32_t side = blend_means(nearest, c, of_means, normal, res.curvature[row], confidence);
     sides[c] = side;
     if (side < 0) continue;
     res.normals.row(row) = normal;
@@ -210,8 +218,10 @@ bool estimate_means(const Points& points, Prepared& prepared, double ratio, doub
   EstimateOptions o = options;
   o.cell_means.noise_ratio = 0;
   o.neighbours = 0;  // the means' table is not the points'
-  o.run = narrow(run, 0.06, 0.95);
+  o.run = narrow(run, 0.06, 0.93);
   EstimateResult of_means = estimate_points(means, o, TileOverrides{});
+  o.run = narrow(run, 0.93, 0.95);
+  add_confidence(means, o, of_means);  // the points take their means' blend of it
   for (const std::string& w : of_means.warnings) warnings.push_back("cell means: " + w);
   const NearestMeans nearest = nearest_means(canon.pts, means, narrow(run, 0.95, 1));
   Normals mean_normals = keep ? of_means.normals : Normals();

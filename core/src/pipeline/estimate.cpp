@@ -243,6 +243,7 @@ void finish_result(EstimateResult& res, const std::vector<int64_t>& copies, size
     res.normals.row(i) = res.normals.row(first);
     res.valid[size_t(i)] = res.valid[size_t(first)];
     res.curvature[i] = res.curvature[first];
+    if (res.confidence.size() == n) res.confidence[i] = res.confidence[first];
     if (flags) res.candidate[size_t(i)] = res.candidate[size_t(first)];
   });
   res.failed = int64_t(std::count(res.valid.begin(), res.valid.end(), uint8_t(0)));
@@ -685,12 +686,14 @@ EstimateResult estimate_points(const Points& points, const EstimateOptions& opti
 }
 
 void add_confidence(const Points& points, const EstimateOptions& options, EstimateResult& res) {
-  if (!options.confidence) return;
+  if (!options.confidence || res.confidence.size() != 0) return;  // cell means blend their own
   const ConfidenceModel model = options.method == Method::Pca    ? ConfidenceModel::Pca
                                 : options.method == Method::Mfps ? ConfidenceModel::Mfps
                                                                  : ConfidenceModel::NhNet;
+  const IndexMatrix* table = res.neighbours.rows() == points.rows() ? &res.neighbours : nullptr;
   res.confidence = confidence_from_features(
-      confidence_features(points, res.normals, res.curvature, res.noise_ratio, options.run), model);
+      confidence_features(points, res.normals, res.curvature, res.noise_ratio, options.run, table),
+      model);
 }
 
 namespace {
@@ -716,11 +719,18 @@ EstimateResult estimate_normals_keeping_means(const Points& points, const Estima
                                               MeansRun* keep) {
   check_options(options);
   EstimateOptions estimate = options;
-  if (options.confidence) estimate.run = narrow(options.run, 0, 0.97);
+  if (options.confidence) {
+    estimate.run = narrow(options.run, 0, 0.97);
+    // the estimate's own neighbour table, when it can give one, spares the confidence a search
+    estimate.neighbours = std::max(options.neighbours, kConfidenceNeighbours);
+  }
   EstimateResult res = estimate_unscored(points, estimate, keep);
   EstimateOptions scored = options;
   scored.run = narrow(options.run, 0.97, 1);
   add_confidence(points, scored, res);
+  if (res.neighbours.cols() > options.neighbours)  // deeper only for the confidence
+    res.neighbours =
+        options.neighbours > 0 ? res.neighbours.leftCols(options.neighbours).eval() : IndexMatrix();
   return res;
 }
 

@@ -34,7 +34,8 @@ struct TileOverrides {
 };
 
 /// With options.confidence, res.confidence from res's normals, curvatures and noise ratio over
-/// `points` (learned/confidence.hpp, the weights of options.method); else nothing.
+/// `points` (learned/confidence.hpp, the weights of options.method); else, or when res has one
+/// already (a run through cell means blends its means' confidences), nothing.
 void add_confidence(const Points& points, const EstimateOptions& options, EstimateResult& res);
 
 /// A result for n points with NaN normals and curvatures and nothing valid yet.

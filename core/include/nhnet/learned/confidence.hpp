@@ -29,10 +29,13 @@ enum class ConfidenceModel { Pca, Mfps, NhNet };
 
 /// N x kConfidenceFeatures features of every point with a finite normal (NaN rows for the
 /// others). `curvature` (N) and `noise_ratio` as EstimateResult gives them; points with a normal
-/// must be finite. Cancellable through run.progress.
+/// must be finite. `neighbours` (optional; EstimateResult::neighbours): N x at least
+/// kConfidenceNeighbours rows of each point's nearest points, itself first, used instead of a
+/// search when every normal is finite. Cancellable through run.progress.
 Eigen::MatrixXd confidence_features(const Points& points, const Normals& normals,
                                     const Eigen::VectorXd& curvature, double noise_ratio,
-                                    const RunContext& run = {});
+                                    const RunContext& run = {},
+                                    const IndexMatrix* neighbours = nullptr);
 
 /// Confidence in [0, 1] per row of `features` (confidence_features); NaN for NaN rows.
 Eigen::VectorXd confidence_from_features(const Eigen::MatrixXd& features, ConfidenceModel model);
