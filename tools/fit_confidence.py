@@ -20,6 +20,8 @@ Three steps; `data` is resumable (a cloud's file is written once, atomically):
     # on the held-out PCPNetNoise clouds, with the weights the core runs: AUROC per noise level,
     # beside the surface variation's, and the reliability table
     PYTHONPATH=build/python /usr/bin/python3 tools/fit_confidence.py report runs/conf/feat
+    # any clouds with ground truth (e.g. 1M points, through cell means), the whole pipeline
+    PYTHONPATH=build/python /usr/bin/python3 tools/fit_confidence.py check --method mfps X.gt.xyzn
 
 The training split is the datagen `train` set at noise 0, 0.3, 0.6 and 1.2 % (uniform sampling);
 the test split is the benchmark's PCPNetNoise category (35 held-out models at 0, 0.125, 0.6 and
@@ -226,6 +228,25 @@ def rel_table(method: str, rel) -> None:
     print()
 
 
+def cmd_check(a) -> int:
+    """The pipeline's own confidence (nhnet.estimate(confidence=True)) on whole clouds."""
+    import nhnet
+    print("| cloud | method | points | cell means | AUROC confidence | AUROC surface variation "
+          "| over 30 deg |")
+    print("|---|---|---|---|---|---|---|")
+    for f in a.clouds:
+        xyzn = np.loadtxt(f)
+        r = nhnet.estimate(xyzn[:, :3], method=a.method, orient=None, confidence=True,
+                           threads=a.threads)
+        e = nhnet.angle_errors(r.normals, xyzn[:, 3:])
+        ok = np.isfinite(e)
+        wrong = e[ok] > WRONG_DEG
+        print(f"| {Path(f).name} | {a.method} | {len(xyzn)} | {r.cell_means} "
+              f"| {auroc(-r.confidence[ok], wrong):.3f} | {auroc(r.curvature[ok], wrong):.3f} "
+              f"| {100 * wrong.mean():.1f} % |", flush=True)
+    return 0
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = ap.add_subparsers(dest="cmd", required=True)
@@ -244,8 +265,12 @@ def main(argv=None) -> int:
     r = sub.add_parser("report", help="AUROC and reliability on the test split")
     r.add_argument("feat")
     r.add_argument("--methods", default=",".join(METHODS))
+    c = sub.add_parser("check", help="the pipeline's confidence on whole clouds (.gt.xyzn)")
+    c.add_argument("clouds", nargs="+")
+    c.add_argument("--method", default="nhnet", choices=METHODS)
+    c.add_argument("--threads", type=int, default=0)
     a = ap.parse_args(argv)
-    return {"data": cmd_data, "fit": cmd_fit, "report": cmd_report}[a.cmd](a)
+    return {"data": cmd_data, "fit": cmd_fit, "report": cmd_report, "check": cmd_check}[a.cmd](a)
 
 
 if __name__ == "__main__":

@@ -5,6 +5,7 @@
 #include "nhnet/io/cloud.hpp"
 #include "nhnet/io/io.hpp"
 
+#include <pybind11/eigen.h>
 #include <pybind11/stl.h>
 
 namespace nhnet::python {
@@ -94,7 +95,8 @@ ExtraProperty to_extra(const std::string& name, const py::handle& values, Eigen:
 }
 
 void write(const std::string& path, const py::object& points, const py::object& normals,
-           const py::object& extras, bool ascii, const std::optional<std::string>& format) {
+           const py::object& extras, bool ascii, const std::optional<std::string>& format,
+           const py::object& confidence) {
   Cloud c;
   py::object pts = points, nrm = normals, ext = extras;
   if (py::isinstance<PyCloud>(points)) {  // write(path, cloud): the cloud's own fields
@@ -119,6 +121,13 @@ void write(const std::string& path, const py::object& points, const py::object& 
   if (!ext.is_none())
     for (auto item : ext.cast<py::dict>())
       c.extras.push_back(to_extra(py::str(item.first), item.second, c.points.rows()));
+  if (!confidence.is_none()) {
+    c.confidence = py::cast<Eigen::VectorXd>(confidence);
+    if (c.confidence.size() != c.points.rows())
+      throw InvalidOptions("confidence must have one value per point: got " +
+                           std::to_string(c.confidence.size()) + " for " +
+                           std::to_string(c.points.rows()) + " points");
+  }
   WriteOptions opt;
   opt.format = parse_format(format);
   opt.ascii = ascii;
@@ -244,11 +253,15 @@ void register_io(py::module_& m) {
         "The format comes from the extension (.ply, .pcd, .xyz/.xyzn/.txt/.pts) unless "
         "`format` says; PLY / PCD are binary unless `ascii`. The file is written to a "
         "temporary name and renamed over `path` when complete (an existing file is "
-        "replaced; a failure leaves no partial file).\n\n"
+        "replaced; a failure leaves no partial file). `confidence` (N,), e.g. "
+        "nhnet.estimate(..., confidence=True).confidence, is written as nhnet-cli --confidence "
+        "writes it (PLY / PCD `confidence`, LAS / LAZ `Confidence`, E57 `nhnet:confidence`, "
+        "XYZ a 7th column; needs the normals).\n\n"
         "Raises nhnet.OutputError (an OSError) naming the file and the reason, "
         "nhnet.InvalidOptions (a ValueError) for bad arrays.",
         py::arg("path"), py::arg("points"), py::arg("normals") = py::none(), py::kw_only(),
-        py::arg("extras") = py::none(), py::arg("ascii") = false, py::arg("format") = py::none());
+        py::arg("extras") = py::none(), py::arg("ascii") = false, py::arg("format") = py::none(),
+        py::arg("confidence") = py::none());
 }
 
 }  // namespace nhnet::python

@@ -98,8 +98,8 @@ TEST(Confidence, RanksTheErrorsOfANoisyCube) {
   int nc = 0, ne = 0;
   for (Eigen::Index i = 0; i < f.points.rows(); ++i) {
     if (!r.valid[size_t(i)]) continue;
-    const double err = fixtures::line_angle(r.normals.row(i).transpose(),
-                                            f.normals.row(i).transpose());
+    const double err =
+        fixtures::line_angle(r.normals.row(i).transpose(), f.normals.row(i).transpose());
     unsure.push_back(1 - r.confidence[i]);
     variation.push_back(r.curvature[i]);
     bad.push_back(err > M_PI / 6);
@@ -110,9 +110,10 @@ TEST(Confidence, RanksTheErrorsOfANoisyCube) {
     if (1 - a[1] < 0.03) edge += r.confidence[i], ++ne;
   }
   const double auc = auroc(unsure, bad), floor = auroc(variation, bad);
-  std::printf("cube: AUROC confidence %.3f, surface variation %.3f; mean confidence face "
-              "centres %.3f, edges %.3f\n",
-              auc, floor, centre / nc, edge / ne);
+  std::printf(
+      "cube: AUROC confidence %.3f, surface variation %.3f; mean confidence face "
+      "centres %.3f, edges %.3f\n",
+      auc, floor, centre / nc, edge / ne);
   EXPECT_GT(auc, 0.75);
   EXPECT_GT(centre / nc, edge / ne + 0.2);
 }

@@ -103,6 +103,18 @@ def test_cli_writes_it_in_every_format(cloud, tmp_path):
         assert np.all(np.isnan(got[~have])), ext
 
 
+def test_python_write(cloud, tmp_path):
+    """nhnet.write(..., confidence=) writes what the CLI writes; a wrong length is refused."""
+    _, pts, r = cloud
+    out = tmp_path / "py.ply"
+    nhnet.write(str(out), pts, r.normals, confidence=r.confidence)
+    got = read_ply_property(out, "confidence")
+    np.testing.assert_allclose(got[r.valid], r.confidence[r.valid], rtol=0, atol=TOL)
+    with pytest.raises(nhnet.InvalidOptions, match="one value per point"):
+        nhnet.write(str(tmp_path / "bad.ply"), pts, r.normals, confidence=r.confidence[:-1])
+    assert not (tmp_path / "bad.ply").exists()
+
+
 def test_off_by_default_and_stream_refused(cloud, tmp_path):
     src, _, _ = cloud
     out = tmp_path / "plain.ply"
