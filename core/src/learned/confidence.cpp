@@ -53,17 +53,17 @@ Row point_features(const Points& pts, const Normals& nrm, const int32_t* idx, in
   std::array<double, kConfidenceNeighbours> dis{};
   Eigen::RowVector3d mean = Eigen::RowVector3d::Zero();
   double height = 0, dist = 0;
+  double sum = 0;
   for (size_t j = 0; j < m; ++j) {
     const Eigen::RowVector3d off = pts.row(idx[j + 1]) - p;
     dis[j] = 1 - std::abs(n.dot(nrm.row(idx[j + 1])));
+    sum += dis[j];
     height += std::abs(off.dot(n));
     dist += off.norm();
     mean += off;
   }
   Row f;
   f[0] = 3 * variation;
-  double sum = 0;
-  for (size_t j = 0; j < m; ++j) sum += dis[j];
   f[1] = m ? sum / double(m) : 0;
   const auto end = dis.begin() + std::ptrdiff_t(m);
   f[2] = m ? *std::max_element(dis.begin(), end) : 0;
@@ -100,10 +100,6 @@ double network(const Row& f, const ConfidenceWeights& w) {
   }
   return 1 / (1 + std::exp(out));  // the network scores the chance of an error over 30 degrees
 }
-
-}  // namespace
-
-namespace {
 
 /// Fills the rows of `out` listed in `rows` from a neighbour table over `pts` / `nrm` (`knn`
 /// row r belongs to rows[r]; self first, moved there when a copy came first).
