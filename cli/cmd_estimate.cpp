@@ -14,6 +14,7 @@
 
 #include "nhnet/errors.hpp"
 #include "nhnet/io/cloud.hpp"
+#include "nhnet/learned/confidence.hpp"
 #include "nhnet/learned/nhnet_model.hpp"
 #include "nhnet/orient/auto.hpp"
 #include "nhnet/orient/orient.hpp"
@@ -116,6 +117,7 @@ void estimate_stream(const EstimateArgs& a, const Setup& st, Outcome& o) {
   o.seconds = rep.elapsed();
   EstimateSummary sum = summary_of(st, o, res);
   sum.points = res.points;
+  sum.low_confidence = res.low_confidence;
   sum.streamed = true;
   sum.warnings = res.warnings.size();
   sum.orient = shown;
@@ -167,6 +169,7 @@ void estimate_in_memory(const EstimateArgs& a, const Setup& st, Outcome& o) {
 
   // Write (exit 6); write_cloud goes through a temporary file + rename.
   cloud.normals = std::move(res.normals);
+  const int64_t low = st.opt.confidence ? nhnet::count_low_confidence(res.confidence) : -1;
   cloud.confidence = std::move(res.confidence);  // empty without --confidence
   write_output(rep, o.out, cloud, a.output.ascii);
   o.failed = res.failed;
@@ -174,6 +177,7 @@ void estimate_in_memory(const EstimateArgs& a, const Setup& st, Outcome& o) {
 
   EstimateSummary sum = summary_of(st, o, res);
   sum.points = int64_t(cloud.size());
+  sum.low_confidence = low;
   sum.warnings = res.warnings.size() + read_warnings.size();
   sum.orient = orient;
   sum.orient_source = plan.source;

@@ -228,10 +228,6 @@ void check_stream(const EstimateArgs& a, const Setup& st) {
                                 " needs the whole cloud in memory; with --stream "
                                 "use auto, none, keep or viewpoint X Y Z");
   if (st.opt.tiles.points <= 0) throw nhnet::InvalidOptions("--stream needs --tile-points > 0");
-  if (a.confidence)
-    throw nhnet::InvalidOptions(
-        "--confidence is not available with --stream yet (in memory, or nhnet.distributed, "
-        "write it)");
   const std::string out =
       a.batch() ? "x." + (a.ext.empty() ? std::string("xyzn") : a.ext) : a.files[1];
   const nhnet::FileFormat f = nhnet::format_from_extension(out);

@@ -2,6 +2,7 @@
 #include "summary.hpp"
 
 #include "json.hpp"
+#include "nhnet/learned/confidence.hpp"
 #include "progress.hpp"
 
 #include <cstdio>
@@ -86,14 +87,18 @@ void print_estimate_line(const EstimateSummary& s) {
                                           : std::string();
   const std::string means =
       s.cell_means > 0 ? ", through " + std::to_string(s.cell_means) + " cell means" : "";
+  char low[64] = "";
+  if (s.low_confidence >= 0)
+    std::snprintf(low, sizeof low, ", %lld below confidence %g", (long long)s.low_confidence,
+                  nhnet::kLowConfidence);
   std::ostringstream line;
   line << "nhnet-cli: " << s.points << " points, " << s.failed << " failed, method "
        << nhnet::to_string(s.method)
        << (nhnet ? nhnet::network_phrase(s.device, s.precision) : std::string()) << ", k " << s.k
        << ", scales " << (s.scales.empty() ? std::string("-") : join(s.scales, "/"))
-       << ", noise ratio " << noise << ", " << s.candidates << " candidates" << means << tiles
-       << ", orient " << orient_summary(s.orient, s.orient_source, s.orient_result) << ", " << secs
-       << " s, output " << s.out;
+       << ", noise ratio " << noise << ", " << s.candidates << " candidates" << means << low
+       << tiles << ", orient " << orient_summary(s.orient, s.orient_source, s.orient_result) << ", "
+       << secs << " s, output " << s.out;
   std::cerr << line.str() << std::endl;
 }
 
@@ -109,8 +114,10 @@ void print_estimate_json(const EstimateSummary& s) {
      << ", \"k\": " << s.k << ", \"scales\": [" << join(s.scales, ", ") << "]"
      << ", \"noise_ratio\": " << json_number(s.noise_ratio)
      << ", \"spacing\": " << json_number(s.spacing) << ", \"candidates\": " << s.candidates
-     << ", \"cell_means\": " << s.cell_means << ", \"tiles\": " << s.tiles
-     << (s.streamed ? ", \"streamed\": true" : "") << ", "
+     << ", \"cell_means\": " << s.cell_means
+     << (s.low_confidence >= 0 ? ", \"low_confidence\": " + std::to_string(s.low_confidence)
+                               : std::string())
+     << ", \"tiles\": " << s.tiles << (s.streamed ? ", \"streamed\": true" : "") << ", "
      << orient_json(s.orient, s.orient_source, s.orient_result) << ", \"warnings\": " << s.warnings
      << ", \"seconds\": " << json_number(s.seconds, 4) << "}";
   std::cout << js.str() << std::endl;

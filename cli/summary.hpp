@@ -28,7 +28,8 @@ struct EstimateSummary {
   double noise_ratio = 0, spacing = 0;
   int64_t candidates = 0;
   int tiles = 1;
-  int64_t cell_means = 0;  ///< EstimateResult::cell_means (0: the points themselves)
+  int64_t cell_means = 0;       ///< EstimateResult::cell_means (0: the points themselves)
+  int64_t low_confidence = -1;  ///< --confidence: points below nhnet::kLowConfidence, else -1
   bool streamed = false;
   size_t warnings = 0;
   nhnet::OrientOptions orient;

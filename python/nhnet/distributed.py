@@ -75,6 +75,11 @@ def _parse(argv):
                    help="as nhnet-cli: dense clouds whose noise exceeds their spacing are "
                    "estimated on local means of their points (auto: the core's noise ratio), "
                    "from another noise ratio, or never (off)")
+    conf = tasks._core()._default_confidence()
+    e.add_argument("--confidence", action=argparse.BooleanOptionalAction, default=conf,
+                   help="as nhnet-cli --confidence: also write each normal's confidence in "
+                   "[0, 1] (PLY / PCD 'confidence', LAS extra bytes 'Confidence', text a 7th "
+                   f"column, NaN where a point failed; default: the core's, {'on' if conf else 'off'})")
     e.add_argument("--orient", nargs="+", default=["auto"], metavar="MODE",
                    help="auto (default, as nhnet-cli: from the input's header), keep, up, "
                    "mst[:K], viewpoint X Y Z, sensors or none")
@@ -157,7 +162,7 @@ class Job:
                         "scales": [int(s) for s in args.scales.split(",")] if args.scales else None,
                         "threads": args.threads, "halo": args.halo, "model": args.model,
                         "device": args.device, "precision": args.precision,
-                        "cell_means": args.cell_means}
+                        "cell_means": args.cell_means, "confidence": args.confidence}
 
     def _wait(self, futures, what, gather=True):
         """Waits for `futures` with a progress bar; their results when `gather` (small ones
@@ -408,10 +413,10 @@ class Job:
                                           "records are kept); write .ply or .pcd")
                 lo = np.min([m["lo"] for m in metas if not m["error"]], axis=0)
                 hi = np.max([m["hi"] for m in metas if not m["error"]], axis=0)
-                header, itemsize = dio.las_output_header(self.source, lo, hi)
+                header, itemsize = dio.las_output_header(self.source, lo, hi, a.confidence)
             else:
-                header = dio.output_header(self.out_kind, int(rows0[-1]), ctype)
-                itemsize = dio.output_dtype(ctype).itemsize
+                header = dio.output_header(self.out_kind, int(rows0[-1]), ctype, a.confidence)
+                itemsize = dio.output_dtype(ctype, a.confidence).itemsize
             self.tmp = f"{a.output}.tmp-dask{os.getpid()}"
             with open(self.tmp, "wb") as f:  # the client writes the header and sizes the file
                 f.write(header)
@@ -419,6 +424,7 @@ class Job:
             out = {"kind": "las" if self.out_kind == "las" else "binary", "tmp": self.tmp,
                    "header": len(header), "ctype": ctype, "itemsize": itemsize}
         out["keep"] = self.orient["mode"] == "keep"
+        out["confidence"] = a.confidence
         failed = sum(self._wait([c.submit(tasks.write_chunk, chunks[i], i, int(rows0[i]), signs,
                                           out, self.scratch, key=f"{self.token}-write-{i}") for i in ok],
                                 "writing"))

@@ -379,32 +379,39 @@ def output_kind(path):
                       f"{', '.join(TEXT_EXTS)}")
 
 
-def output_header(kind, count, ctype):
-    """Header of a binary output file: x y z (ctype) then float normals."""
+def output_header(kind, count, ctype, confidence=False):
+    """Header of a binary output file: x y z (ctype), float normals, then a float confidence
+    when asked (the core's writers' name for it: PLY / PCD `confidence`)."""
     if kind == "ply":
         t = "float" if ctype == "f4" else "double"
         return ("ply\nformat binary_little_endian 1.0\ncomment written by nhnet.distributed\n"
                 f"element vertex {count}\nproperty {t} x\nproperty {t} y\nproperty {t} z\n"
-                "property float nx\nproperty float ny\nproperty float nz\nend_header\n").encode()
+                "property float nx\nproperty float ny\nproperty float nz\n"
+                + ("property float confidence\n" if confidence else "")
+                + "end_header\n").encode()
     s = 4 if ctype == "f4" else 8
+    c = (" confidence", " 4", " F", " 1") if confidence else ("",) * 4
     return ("# .PCD v0.7 - written by nhnet.distributed\nVERSION 0.7\n"
-            "FIELDS x y z normal_x normal_y normal_z\n"
-            f"SIZE {s} {s} {s} 4 4 4\nTYPE F F F F F F\nCOUNT 1 1 1 1 1 1\n"
+            f"FIELDS x y z normal_x normal_y normal_z{c[0]}\n"
+            f"SIZE {s} {s} {s} 4 4 4{c[1]}\nTYPE F F F F F F{c[2]}\nCOUNT 1 1 1 1 1 1{c[3]}\n"
             f"WIDTH {count}\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS {count}\n"
             "DATA binary\n").encode()
 
 
-def output_dtype(ctype):
+def output_dtype(ctype, confidence=False):
     return np.dtype([("x", "<" + ctype), ("y", "<" + ctype), ("z", "<" + ctype),
-                     ("nx", "<f4"), ("ny", "<f4"), ("nz", "<f4")])
+                     ("nx", "<f4"), ("ny", "<f4"), ("nz", "<f4")]
+                    + ([("confidence", "<f4")] if confidence else []))
 
 
-def write_rows(path, offset, points, normals, ctype):
+def write_rows(path, offset, points, normals, ctype, confidence=None):
     """Writes rows into the preallocated binary output at byte `offset` (idempotent)."""
-    rec = np.empty(len(points), dtype=output_dtype(ctype))
+    rec = np.empty(len(points), dtype=output_dtype(ctype, confidence is not None))
     for i, c in enumerate("xyz"):
         rec[c] = points[:, i]
         rec["n" + c] = normals[:, i]
+    if confidence is not None:
+        rec["confidence"] = confidence
     with open(path, "r+b") as f:
         f.seek(offset)
         f.write(rec.tobytes())
@@ -412,14 +419,15 @@ def write_rows(path, offset, points, normals, ctype):
         os.fsync(f.fileno())
 
 
-def write_text_part(path, points, normals):
-    """One chunk's lines x y z nx ny nz, to a temporary name then renamed (idempotent)."""
+def write_text_part(path, points, normals, confidence=None):
+    """One chunk's lines x y z nx ny nz (and the confidence, a 7th column, when given), to a
+    temporary name then renamed (idempotent)."""
     os.makedirs(os.path.dirname(path), exist_ok=True)
     tmp = f"{path}.tmp{os.getpid()}"
+    cols = [points, normals] + ([] if confidence is None else [confidence.reshape(-1, 1)])
     with open(tmp, "w") as f:
         if len(points):
-            np.savetxt(f, np.hstack([points, normals]),
-                       fmt=["%.17g"] * 3 + ["%.9g"] * 3)
+            np.savetxt(f, np.hstack(cols), fmt=["%.17g"] * 3 + ["%.9g"] * (len(cols) + 1))
     os.replace(tmp, path)
 
 
@@ -443,12 +451,12 @@ def _vlr(user, rid, payload, description):
     return bytes(h) + payload
 
 
-def las_output_header(source, lo, hi):
+def las_output_header(source, lo, hi, confidence=False):
     """Header and VLRs of the LAS output of a LAS input, as the core's LAS writer makes them
     (io/las_write.cpp, a cloud read from LAS written back): the input's header and VLRs, each
-    record kept and widened by NormalX/Y/Z float32 extra-bytes fields described in a rebuilt
-    extra-bytes VLR after the others; counts, offsets and the bounds [lo, hi] patched. Returns
-    (bytes, new record length)."""
+    record kept and widened by NormalX/Y/Z (and, when asked, Confidence) float32 extra-bytes
+    fields described in a rebuilt extra-bytes VLR after the others; counts, offsets and the
+    bounds [lo, hi] patched. Returns (bytes, new record length)."""
     path = source["path"]
     with open(path, "rb") as f:
         head = f.read(source["data"])
@@ -478,20 +486,22 @@ def las_output_header(source, lo, hi):
             described += d[3]
         elif 1 <= d[2] <= 30:
             described += _LAS_EXTRA_SIZE[(d[2] - 1) % 10 + 1] * ((d[2] - 1) // 10 + 1)
-        if "normal" in d[4:36].split(b"\0")[0].decode("ascii", "replace").lower():
-            raise SourceError(f"{path}: the input already has normal fields; nhnet.distributed "
+        name = d[4:36].split(b"\0")[0].decode("ascii", "replace").lower()
+        if "normal" in name or (confidence and name == "confidence"):
+            raise SourceError(f"{path}: the input already has {name} fields; nhnet.distributed "
                               "writes LAS only from inputs without them (use nhnet-cli)")
     gap = record - described
     while gap > 0:
         extras.append(_descriptor("", 0, min(gap, 255)))
         gap -= min(gap, 255)
-    extras += [_descriptor(n, 9) for n in ("NormalX", "NormalY", "NormalZ")]
+    added = ("NormalX", "NormalY", "NormalZ") + (("Confidence",) if confidence else ())
+    extras += [_descriptor(n, 9) for n in added]
     vlrs.append(_vlr("LASF_Spec", 4, b"".join(extras), "extra bytes"))
     h = bytearray(head[:hsize])
     offset = hsize + sum(len(v) for v in vlrs)
     n = source["count"]
     h[104] = fmt
-    h[105:107] = (record + 12).to_bytes(2, "little")
+    h[105:107] = (record + 4 * len(added)).to_bytes(2, "little")
     h[96:100] = offset.to_bytes(4, "little")
     h[100:104] = len(vlrs).to_bytes(4, "little")
     h[107:111] = (n if fmt < 6 and n <= 0xFFFFFFFF else 0).to_bytes(4, "little")
@@ -502,17 +512,21 @@ def las_output_header(source, lo, hi):
         h[243:247] = (0).to_bytes(4, "little")
         h[247:255] = n.to_bytes(8, "little")
         h[235:243] = (0).to_bytes(8, "little")
-    return bytes(h) + b"".join(vlrs), record + 12
+    return bytes(h) + b"".join(vlrs), record + 4 * len(added)
 
 
-def write_las_rows(chunk, path, offset, normals):
-    """The chunk's input records, unchanged, each followed by its normal (float32 NormalX/Y/Z),
-    written in place at byte `offset` of the preallocated LAS output (idempotent)."""
+def write_las_rows(chunk, path, offset, normals, confidence=None):
+    """The chunk's input records, unchanged, each followed by its normal (float32 NormalX/Y/Z)
+    and, when given, its confidence (float32 Confidence), written in place at byte `offset` of
+    the preallocated LAS output (idempotent)."""
     raw = np.fromfile(chunk["path"], dtype=f"V{np.dtype(chunk['dtype']).itemsize}",
                       count=chunk["end"] - chunk["begin"],
                       offset=chunk["data"] + chunk["begin"] * np.dtype(chunk["dtype"]).itemsize)
-    rec = np.empty(len(raw), dtype=[("r", raw.dtype), ("n", "<f4", (3,))])
+    rec = np.empty(len(raw), dtype=[("r", raw.dtype), ("n", "<f4", (3,))]
+                   + ([("c", "<f4")] if confidence is not None else []))
     rec["r"], rec["n"] = raw, normals
+    if confidence is not None:
+        rec["c"] = confidence
     with open(path, "r+b") as f:
         f.seek(offset)
         f.write(rec.tobytes())

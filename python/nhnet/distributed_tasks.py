@@ -156,7 +156,7 @@ def estimate(t, boxes, decisions, options, orient, chunk_rows, scratch):
     own distinct valid points' nearest distances (saved) and their box."""
     nh = _core()
     pts, rows, owner, own = load_tile(t, boxes, decisions["halo"], scratch)
-    normals, valid, cand, warnings, k_used, scales_used, means = nh._estimate_tile(
+    normals, valid, cand, warnings, k_used, scales_used, means, conf = nh._estimate_tile(
         pts, options, decisions)
     base = {"tile": t, "own": own, "failed": int(own - valid[:own].sum()),
             "candidates": int(cand[:own].sum()) if len(cand) else 0, "warnings": warnings,
@@ -164,7 +164,8 @@ def estimate(t, boxes, decisions, options, orient, chunk_rows, scratch):
     if orient["mode"] == "mst":  # the MST's guides, fitted once for the leak counts and the MST
         gp, gg, near, row_guides = nh._mst_guides(pts, normals, own, orient["k"],
                                                   options["threads"])
-        _save(os.path.join(scratch, "raw", f"t{t}.npz"), normals=normals, guides=row_guides)
+        _save(os.path.join(scratch, "raw", f"t{t}.npz"), normals=normals, guides=row_guides,
+              **({} if conf is None else {"confidence": conf[:own]}))
         _save(os.path.join(scratch, "guides", f"t{t}.npz"), p=gp, g=gg)
         _save(os.path.join(scratch, "near", f"t{t}.npz"), d=near)
         ok = np.isfinite(pts[:own]).all(axis=1) & np.isfinite(normals[:own]).all(axis=1) & \
@@ -180,7 +181,7 @@ def estimate(t, boxes, decisions, options, orient, chunk_rows, scratch):
                             threads=options["threads"]).normals
     elif orient["mode"] == "up":
         normals = nh.orient(pts, normals, "up", threads=options["threads"]).normals
-    return _finish(t, pts, rows, own, normals, chunk_rows, scratch, base)
+    return _finish(t, pts, rows, own, normals, chunk_rows, scratch, base, conf)
 
 
 def median_spacing(tiles, scratch):
@@ -239,17 +240,20 @@ def orient_tile(t, boxes, decisions, options, orient, chunk_rows, scratch, frame
           normals=normals[own:].astype(np.float32))
     _save(os.path.join(scratch, "own", f"t{t}.npz"), rows=rows[:own],
           normals=normals[:own].astype(np.float32))
-    return _finish(t, pts, rows, own, normals, chunk_rows, scratch, base)
+    conf = raw["confidence"] if "confidence" in raw.files else None
+    return _finish(t, pts, rows, own, normals, chunk_rows, scratch, base, conf)
 
 
-def _finish(t, pts, rows, own, normals, chunk_rows, scratch, base):
-    """The own points' normals to one file per input chunk; returns `base` with the tile's terms
-    of the outward vote."""
+def _finish(t, pts, rows, own, normals, chunk_rows, scratch, base, conf=None):
+    """The own points' normals (and confidences, when estimated) to one file per input chunk;
+    returns `base` with the tile's terms of the outward vote."""
     n, r = normals[:own].astype(np.float32), rows[:own]
+    cf = None if conf is None else np.asarray(conf[:own], dtype=np.float32)
     chunk_of = np.searchsorted(chunk_rows, r, side="right") - 1
     for c in np.unique(chunk_of):
         sel = chunk_of == c
-        _save(os.path.join(scratch, "res", f"c{c}", f"t{t}.npz"), rows=r[sel], normals=n[sel])
+        _save(os.path.join(scratch, "res", f"c{c}", f"t{t}.npz"), rows=r[sel], normals=n[sel],
+              **({} if cf is None else {"confidence": cf[sel]}))
     ok = np.isfinite(normals[:own]).all(axis=1)
     p, m = pts[:own][ok], normals[:own][ok]
     top = int(np.argmax(pts[:own, 2]))
@@ -274,11 +278,13 @@ def overlap(t, scratch):
 
 
 def write_chunk(chunk, c, row0, signs, out, scratch):
-    """Pass 4: the chunk's points with their normals (tile signs applied; NaN where none) into
-    the output: in place at the chunk's offset (binary), as a part file (text), or as the tile's
-    own output file (folder input)."""
+    """Pass 4: the chunk's points with their normals (tile signs applied; NaN where none) and,
+    when out["confidence"], their confidences (NaN where none) into the output: in place at the
+    chunk's offset (binary), as a part file (text), or as the tile's own output file (folder
+    input)."""
     pts = dio.read_chunk(chunk)
     normals = np.full((len(pts), 3), np.nan, np.float32)
+    conf = np.full(len(pts), np.nan, np.float32) if out.get("confidence") else None
     d = os.path.join(scratch, "res", f"c{c}")
     if os.path.isdir(d):
         for name in os.listdir(d):
@@ -287,6 +293,8 @@ def write_chunk(chunk, c, row0, signs, out, scratch):
             t = int(name[1:-4])
             r = np.load(os.path.join(d, name))
             normals[r["rows"] - row0] = r["normals"] * np.float32(signs.get(t, 1))
+            if conf is not None:
+                conf[r["rows"] - row0] = r["confidence"]
     if out.get("keep"):  # the input normals' signs, per point (the core's orient_like)
         ref = dio.read_normals(chunk)
         flip = (normals.astype(np.float64) * ref).sum(axis=1) < 0
@@ -294,14 +302,16 @@ def write_chunk(chunk, c, row0, signs, out, scratch):
     if out["kind"] == "folder":
         import nhnet  # noqa: PLC0415
         os.makedirs(os.path.dirname(out["paths"][c]), exist_ok=True)
-        nhnet.write(out["paths"][c], pts, normals.astype(np.float64))
+        nhnet.write(out["paths"][c], pts, normals.astype(np.float64),
+                    confidence=None if conf is None else conf.astype(np.float64))
     elif out["kind"] == "las":
-        dio.write_las_rows(chunk, out["tmp"], out["header"] + row0 * out["itemsize"], normals)
+        dio.write_las_rows(chunk, out["tmp"], out["header"] + row0 * out["itemsize"], normals,
+                           conf)
     elif out["kind"] == "text":
-        dio.write_text_part(os.path.join(scratch, "parts", f"p{c:06d}.txt"), pts, normals)
+        dio.write_text_part(os.path.join(scratch, "parts", f"p{c:06d}.txt"), pts, normals, conf)
     else:
         dio.write_rows(out["tmp"], out["header"] + row0 * out["itemsize"], pts, normals,
-                       out["ctype"])
+                       out["ctype"], conf)
     return int(np.isnan(normals[:, 0]).sum())
 
 

@@ -97,8 +97,8 @@ const auto kDecisionFields = std::make_tuple(
     field("cell_means", &TileDecisions::cell_means));
 
 /// The estimator's options from the job's (a dict: method, k, scales, seed, threads, halo, model,
-/// device, and optionally precision and cell_means (a noise ratio, 0 = off): None or absent =
-/// the core's).
+/// device, and optionally precision, cell_means (a noise ratio, 0 = off) and confidence (bool):
+/// None or absent = the core's).
 EstimateOptions options_from_dict(const py::dict& d) {
   EstimateOptions o;
   o.method = method_from_string(d["method"].cast<std::string>());
@@ -113,6 +113,8 @@ EstimateOptions options_from_dict(const py::dict& d) {
     o.model.precision = d["precision"].cast<std::string>();
   if (d.contains("cell_means") && !d["cell_means"].is_none())
     o.cell_means.noise_ratio = d["cell_means"].cast<double>();
+  if (d.contains("confidence") && !d["confidence"].is_none())
+    o.confidence = d["confidence"].cast<bool>();
   return o;
 }
 
@@ -132,8 +134,10 @@ py::tuple estimate(const py::handle& points, const py::dict& options, const py::
     py::gil_scoped_release release;
     r = estimate_tile(pts, o, d);
   }
+  py::object confidence = py::none();
+  if (o.confidence) confidence = to_numpy(r.confidence);
   return py::make_tuple(to_numpy(r.normals), to_numpy_mask(r.valid), to_numpy(r.candidate),
-                        r.warnings, r.k_used, r.scales_used, r.cell_means);
+                        r.warnings, r.k_used, r.scales_used, r.cell_means, confidence);
 }
 
 }  // namespace
@@ -169,6 +173,9 @@ void register_tiles(py::module_& m) {
       },
       "(name, why) of the core's default method (estimate.hpp default_method(); why is empty "
       "unless it fell back to MFPS): every front end's default.");
+  m.def(
+      "_default_confidence", [] { return EstimateOptions{}.confidence; },
+      "The core's default of EstimateOptions::confidence (nhnet-cli --confidence's).");
   m.def("_cell_means_ratio", &cell_means_from_string,
         "The noise ratio of nhnet-cli's --cell-means text (auto, off = 0 or a ratio > 0).");
   m.def("_probe_step", &probe_step);
@@ -296,7 +303,8 @@ void register_tiles(py::module_& m) {
       py::arg("inside_outside"), py::arg("guides") = py::none());
   m.def("_estimate_tile", &estimate,
         "One tile (own points then halo, frame units) with the whole cloud's decisions: "
-        "(normals, valid, candidate, warnings, k_used, scales_used, cell_means).");
+        "(normals, valid, candidate, warnings, k_used, scales_used, cell_means, confidence: None "
+        "unless the options ask for it).");
 }
 
 }  // namespace nhnet::python

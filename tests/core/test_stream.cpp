@@ -7,6 +7,7 @@
 #include "nhnet/errors.hpp"
 #include "nhnet/eval/metrics.hpp"
 #include "nhnet/io/io.hpp"
+#include "nhnet/learned/confidence.hpp"
 #include "nhnet/pipeline/estimate.hpp"
 #include "nhnet/pipeline/stream.hpp"
 
@@ -14,6 +15,7 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -165,6 +167,57 @@ TEST_F(Stream, PcaPlyOutputWithNonFinitePoints) {
       }
   EXPECT_LT(share_differing(out.normals, whole.normals, 1e-3), 0.005);
   EXPECT_LT(angle_stats(out.normals, f.normals).mean, 1.0);  // noise-free sphere (test_pca's bar)
+}
+
+// With the confidence asked for, every streamed point carries the in-memory run's: the tiles'
+// normals are the in-memory ones but for float rounding (previous test), and a point's 16
+// scoring neighbours lie in its tile's halo, so the scores agree to 1e-4 (float storage) but for
+// the few points next to a tile boundary whose normal or neighbours move (under 1 %). Binary PLY
+// (a float property 'confidence') and XYZ text (a 7th column) both; non-finite points get NaN;
+// without the option neither output has the column.
+TEST_F(Stream, ConfidenceInPlyAndXyzFollowsTheInMemoryRun) {
+  auto f = fixtures::cube(12000, 0.004, 4);
+  for (int i = 0; i < 12000; i += 211) f.points(i, 0) = std::numeric_limits<double>::quiet_NaN();
+  const std::string in = write_xyz("c.xyz", f.points);
+  EstimateOptions eo = options(Method::Pca, 0).estimate;
+  eo.confidence = true;
+  const EstimateResult whole = estimate_normals(f.points, eo);
+  StreamOptions o = options(Method::Pca, 3000);
+  o.estimate.confidence = true;
+  const StreamResult sr = estimate_stream(in, path("c.ply"), o);
+  estimate_stream(in, path("c7.xyz"), o);
+  const Cloud ply = read_cloud(path("c.ply"));
+  ASSERT_EQ(ply.extras.size(), 1u);
+  EXPECT_EQ(sr.low_confidence,
+            count_low_confidence(Eigen::Map<const Eigen::VectorXd>(
+                ply.extras[0].values.data(), Eigen::Index(ply.extras[0].values.size()))));
+  EXPECT_EQ(ply.extras[0].name, "confidence");
+  EXPECT_EQ(ply.extras[0].type, ScalarType::Float32);
+  std::ifstream text(path("c7.xyz"));
+  int64_t rows = 0, differ = 0;
+  for (std::string line; std::getline(text, line); ++rows) {
+    double v[8];
+    int n = 0;
+    for (const char* at = line.c_str(); n < 8; ++n) {  // strtod reads "nan", istream does not
+      char* end = nullptr;
+      v[n] = std::strtod(at, &end);
+      if (end == at) break;
+      at = end;
+    }
+    ASSERT_EQ(n, 7) << "line " << rows + 1 << ": " << line;
+    const double c = ply.extras[0].values[size_t(rows)];
+    if (!whole.valid[size_t(rows)]) {
+      EXPECT_TRUE(std::isnan(c) && std::isnan(v[6])) << rows;
+      continue;
+    }
+    EXPECT_FLOAT_EQ(float(c), float(v[6])) << rows;  // the same float in both outputs
+    differ += !(std::abs(c - whole.confidence[rows]) <= 1e-4);
+  }
+  EXPECT_EQ(rows, 12000);
+  EXPECT_LT(double(differ), 0.01 * 12000);
+  o.estimate.confidence = false;
+  EXPECT_EQ(estimate_stream(in, path("off.ply"), o).low_confidence, -1);
+  EXPECT_TRUE(read_cloud(path("off.ply")).extras.empty());
 }
 
 // Viewpoint orientation is per point, so it streams: every normal of a sphere seen from its

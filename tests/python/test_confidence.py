@@ -6,6 +6,7 @@ Run: NHNET_BUILD_DIR=$PWD/build PYTHONPATH=build/python /usr/bin/python3 -m pyte
        tests/python/test_confidence.py -q
 """
 
+import json
 import os
 import subprocess
 from pathlib import Path
@@ -83,8 +84,9 @@ def test_cli_writes_it_in_every_format(cloud, tmp_path):
         out = tmp_path / f"out.{ext}"
         extra = ["--ascii"] if ext == "pcd" else []
         p = cli("estimate", src, out, "--method", "mfps", "--orient", "none", "--confidence",
-                "--quiet", *extra)
+                "--json", *extra)
         assert p.returncode == 0, p.stderr
+        assert json.loads(p.stdout)["low_confidence"] == int((want[have] < 0.5).sum())
         if ext == "ply":
             got = read_ply_property(out, "confidence")
         elif ext == "pcd":
@@ -115,16 +117,28 @@ def test_python_write(cloud, tmp_path):
     assert not (tmp_path / "bad.ply").exists()
 
 
-def test_off_by_default_and_stream_refused(cloud, tmp_path):
-    src, _, _ = cloud
+def test_off_by_default_and_streamed(cloud, tmp_path):
+    """Without --confidence no output has the column; with --stream (tiles of 1500 points) the
+    streamed PLY and XYZ carry the in-memory confidences: equal to float rounding but for the
+    few points whose normal or scoring neighbours move at a tile boundary (test_stream.cpp)."""
+    src, _, r = cloud
     out = tmp_path / "plain.ply"
-    assert cli("estimate", src, out, "--method", "pca", "--quiet").returncode == 0
+    p = cli("estimate", src, out, "--method", "pca", "--json")
+    assert p.returncode == 0 and "low_confidence" not in json.loads(p.stdout)
     assert b"confidence" not in out.read_bytes()[:1000]
-    bad = tmp_path / "s.ply"
-    p = cli("estimate", src, bad, "--stream", "--confidence")
-    assert p.returncode == 2
-    assert "--confidence" in p.stderr and len(p.stderr.strip().splitlines()) == 1
-    assert not bad.exists()
+    ply, xyz = tmp_path / "s.ply", tmp_path / "s.xyz"
+    for o in (ply, xyz):
+        p = cli("estimate", src, o, "--stream", "--tile-points", "1500", "--method", "mfps",
+                "--orient", "none", "--confidence", "--json")
+        assert p.returncode == 0, p.stderr
+    got = read_ply_property(ply, "confidence")
+    # the report counts the written confidences below 0.5 (nhnet::kLowConfidence)
+    assert json.loads(p.stdout)["low_confidence"] == int((got < 0.5).sum())
+    text = np.loadtxt(xyz, ndmin=2)
+    assert text.shape == (N, 7)
+    np.testing.assert_array_equal(text[:, 6].astype(np.float32), got.astype(np.float32))
+    ok = r.valid
+    assert np.mean(np.abs(got[ok] - r.confidence[ok]) <= 1e-4) > 0.95
 
 
 def test_las_field_replaced_not_doubled(cloud, tmp_path):

@@ -389,6 +389,61 @@ def test_las_airborne_in_and_out(cluster, tmp_path):
     assert got.normals is not None and got.airborne
 
 
+def test_confidence_in_every_output(cluster, tmp_path):
+    """--confidence: the confidences of one nhnet-cli --confidence process in PLY (up and MST
+    orientation), PCD, text (a 7th column) and LAS (float32 extra bytes Confidence after NormalX/Y/Z: header, VLRs and the
+    input's records byte-identical to nhnet-cli's). Each tile scores its own points over its halo
+    with the tile's normals, which equal the untiled run's to rounding (above), so 99 % of the
+    scores agree within 1e-3 (the score moves ~1e-3 for a 0.1-degree change of a neighbour's
+    normal); NaN exactly where the normal is NaN. Without the flag no output has the field."""
+    inp = tmp_path / "a.las"
+    airborne_las(inp, 20_000, seed=9)
+    ref_out = tmp_path / "r.las"
+    subprocess.run([str(CLI), "estimate", str(inp), str(ref_out), "--method", "mfps",
+                    "--confidence"], check=True, capture_output=True, env=ENV)
+    ref = nhnet.read(str(ref_out))
+    want = np.asarray(ref.extras["Confidence"], dtype=np.float64)
+    assert np.isfinite(want).sum() > 19_000 and np.ptp(want[np.isfinite(want)]) > 0.3
+
+    def agrees(got, normals):
+        assert (np.isnan(got) == ~np.isfinite(normals).all(axis=1)).all()
+        ok = np.isfinite(want) & np.isfinite(got)
+        return np.mean(np.abs(got[ok] - want[ok]) <= 1e-3)
+
+    # the MST keeps each tile's scores beside its unoriented normals until the grid is decided
+    for suffix, orient in ((".las", "auto"), (".ply", "auto"), (".pcd", "auto"),
+                           (".xyz", "auto"), ("-mst.ply", "mst")):
+        out = tmp_path / f"o{suffix}"
+        r = subprocess.run(distributed_cmd(cluster, inp, out, "--method", "mfps",
+                                           "--tile-points", "6000", "--confidence",
+                                           "--orient", orient),
+                           capture_output=True, text=True, env=ENV)
+        assert r.returncode == 0, r.stderr
+        if suffix == ".xyz":
+            t = np.loadtxt(out, ndmin=2)
+            assert t.shape == (20_000, 7)
+            got, normals = t[:, 6], t[:, 3:6]
+        else:
+            c = nhnet.read(str(out))
+            got = np.asarray(c.extras["Confidence" if suffix == ".las" else "confidence"],
+                             dtype=np.float64)
+            normals = c.normals
+        assert agrees(got, normals) >= 0.99, suffix
+        if suffix == ".las":
+            a, b = ref_out.read_bytes(), out.read_bytes()
+            start = int.from_bytes(a[96:100], "little")
+            size = int.from_bytes(a[105:107], "little")
+            assert a[:start] == b[:start] and len(a) == len(b)
+            ra = np.frombuffer(a[start:], np.uint8).reshape(-1, size)
+            rb = np.frombuffer(b[start:], np.uint8).reshape(-1, size)
+            assert (ra[:, :-16] == rb[:, :-16]).all()
+    plain = tmp_path / "plain.ply"
+    r = subprocess.run(distributed_cmd(cluster, inp, plain, "--method", "pca"),
+                       capture_output=True, text=True, env=ENV)
+    assert r.returncode == 0, r.stderr
+    assert not nhnet.read(str(plain)).extras
+
+
 def test_laz_and_e57_input_refused_with_advice(cluster, tmp_path):
     """A single LAZ or E57 file is not cut into chunks: exit 2 naming the file, with the way
     round it (decompress to LAS / a folder of tiles)."""

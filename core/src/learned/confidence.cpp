@@ -163,4 +163,10 @@ Eigen::VectorXd confidence_from_features(const Eigen::MatrixXd& features, Confid
   return out;
 }
 
+int64_t count_low_confidence(const Eigen::VectorXd& confidence) {
+  int64_t n = 0;
+  for (Eigen::Index i = 0; i < confidence.size(); ++i) n += confidence[i] < kLowConfidence;
+  return n;
+}
+
 }  // namespace nhnet

@@ -28,6 +28,7 @@
 #include "nhnet/geometry/pca.hpp"
 #include "nhnet/geometry/scales.hpp"
 #include "nhnet/io/io.hpp"
+#include "nhnet/learned/confidence.hpp"
 #include "nhnet/learned/nhnet_model.hpp"
 #include "nhnet/neighbors/neighbors.hpp"
 #include "pipeline/estimator.hpp"
@@ -432,16 +433,20 @@ double tiles_variation_threshold(const TileRun& tr, const StreamOptions& options
       Eigen::Map<const Eigen::VectorXd>(variation.data(), Eigen::Index(variation.size())));
 }
 
-/// Writes a tile's own points' normals (NaN where estimation failed), in input order, to its
-/// result file; adds their candidates to `res`. Returns how many failed.
+/// Writes a tile's own points' normals and, when estimated, their confidences (NaN where
+/// estimation failed), in input order, to its result file; adds their candidates to `res`.
+/// Returns how many failed.
 int64_t write_tile_result(const fs::path& file, size_t own, const EstimateResult& est,
                           StreamResult& res) {
   Appender out(file);
+  const bool confidence = est.confidence.size() != 0;
   int64_t degenerate = 0;
   for (size_t r = 0; r < own; ++r) {
-    float n[3];
+    float n[4];
     for (int k = 0; k < 3; ++k) n[k] = est.valid[r] ? float(est.normals(Eigen::Index(r), k)) : NAN;
-    out.add(n, sizeof n);
+    n[3] = confidence && est.valid[r] ? float(est.confidence[Eigen::Index(r)]) : NAN;
+    out.add(n, (confidence ? 4 : 3) * sizeof(float));
+    if (confidence) res.low_confidence += n[3] < float(kLowConfidence);
     degenerate += est.valid[r] ? 0 : 1;
     if (!est.candidate.empty()) res.candidates += est.candidate[r];
   }
@@ -458,6 +463,7 @@ void estimate_tiles(const TileRun& tr, TileSetup setup, StreamResult& res) {
   o.neighbours = 0;  // a tile's table is not the cloud's
   const double begin = 0.15 + variation_span(o.method), span = (0.95 - begin) / double(ntiles);
   std::set<std::string> seen_warnings(res.warnings.begin(), res.warnings.end());
+  if (o.confidence) res.low_confidence = 0;
   int64_t degenerate = 0;
   bool first_tile = true;
   for (size_t t = 0; t < ntiles; ++t) {
@@ -489,13 +495,14 @@ void estimate_tiles(const TileRun& tr, TileSetup setup, StreamResult& res) {
 // Pass 3: the output, in input order.
 
 /// The PLY header of the output: x y z (float when every coordinate is exact in float, else
-/// double) and float normals for `points` vertices.
-std::string ply_header(bool ascii, bool fits_float, int64_t points) {
+/// double), float normals and, when asked, a float confidence for `points` vertices.
+std::string ply_header(bool ascii, bool fits_float, int64_t points, bool confidence) {
   const char* type = fits_float ? "float" : "double";
   return std::string("ply\nformat ") + (ascii ? "ascii" : "binary_little_endian") +
          " 1.0\ncomment written by nhnet (streamed)\nelement vertex " + std::to_string(points) +
          "\nproperty " + type + " x\nproperty " + type + " y\nproperty " + type +
-         " z\nproperty float nx\nproperty float ny\nproperty float nz\nend_header\n";
+         " z\nproperty float nx\nproperty float ny\nproperty float nz\n" +
+         (confidence ? "property float confidence\n" : "") + "end_header\n";
 }
 
 /// The orientation used: Auto is Keep when the input has normals, else None (an XYZ file names
@@ -520,12 +527,14 @@ OrientMode orient_mode(const StreamOptions& options, const XyzStream& in, const 
   return mode;
 }
 
-/// The output's points with their normals, oriented and written kChunk points at a time.
+/// The output's points with their normals (and confidences: a last column, when asked), oriented
+/// and written kChunk points at a time.
 class OutputChunks {
  public:
   OutputChunks(io_detail::AtomicFile& file, const StreamOptions& options, OrientMode mode,
                ScalarType xyz_type, bool binary, StreamResult& res)
       : file_(file),
+        columns_(options.estimate.confidence ? 7 : 6),
         options_(options),
         mode_(mode),
         keep_(mode == OrientMode::Keep),
@@ -534,9 +543,11 @@ class OutputChunks {
         res_(res),
         cp_(Eigen::Index(kChunk), 3),
         cn_(Eigen::Index(kChunk), 3),
-        ref_(keep_ ? Eigen::Index(kChunk) : 0, 3) {}
+        ref_(keep_ ? Eigen::Index(kChunk) : 0, 3),
+        conf_(Eigen::Index(kChunk)) {}
 
-  /// Adds a point: its input row `v` (`columns` values) and its normal (null: NaN).
+  /// Adds a point: its input row `v` (`columns` values) and its normal then confidence (null:
+  /// NaN; the confidence is read only when written).
   void add(const double* v, size_t columns, const float* normal) {
     const Eigen::Index i = Eigen::Index(filled_);
     cp_.row(i) = Eigen::RowVector3d(v[0], v[1], v[2]);
@@ -550,6 +561,7 @@ class OutputChunks {
       cn_.row(i) = Eigen::RowVector3d(normal[0], normal[1], normal[2]);
     else
       cn_.row(i).setConstant(NAN);
+    conf_[i] = normal && columns_ == 7 ? normal[3] : NAN;
     if (++filled_ == kChunk) flush();
   }
 
@@ -559,8 +571,10 @@ class OutputChunks {
     if (mode_ != OrientMode::None) orient();
     text_.clear();
     for (size_t i = 0; i < filled_; ++i) {
-      for (int k = 0; k < 6; ++k) {
-        const double v = k < 3 ? cp_(Eigen::Index(i), k) : cn_(Eigen::Index(i), k - 3);
+      for (int k = 0; k < columns_; ++k) {
+        const double v = k < 3   ? cp_(Eigen::Index(i), k)
+                         : k < 6 ? cn_(Eigen::Index(i), k - 3)
+                                 : conf_[Eigen::Index(i)];
         const ScalarType type = k < 3 ? xyz_type_ : ScalarType::Float32;
         if (binary_) {
           io_detail::encode_scalar_le(v, type, text_);
@@ -595,6 +609,7 @@ class OutputChunks {
   }
 
   io_detail::AtomicFile& file_;
+  int columns_;  // x y z nx ny nz, and the confidence when asked
   const StreamOptions& options_;
   OrientMode mode_;
   bool keep_;
@@ -603,6 +618,7 @@ class OutputChunks {
   StreamResult& res_;
   Points cp_;
   Normals cn_, ref_;
+  Eigen::VectorXd conf_;
   size_t filled_ = 0;
   std::string text_;
 };
@@ -612,10 +628,11 @@ class OutputChunks {
 void write_output(const TileRun& tr, XyzStream& in, io_detail::AtomicFile& file,
                   const StreamOptions& options, bool ply, bool fits_float, StreamResult& res) {
   if (tr.run.progress) tr.top.stage("writing", 0.95, 1.0);
+  const bool confidence = options.estimate.confidence;
   std::vector<Cursor> results;
   for (size_t t = 0; t < tr.plan.tiles(); ++t)
-    results.emplace_back(tr.tiles.result_file(t), 3 * sizeof(float));
-  if (ply) file.write(ply_header(options.ascii, fits_float, res.points));
+    results.emplace_back(tr.tiles.result_file(t), (confidence ? 4 : 3) * sizeof(float));
+  if (ply) file.write(ply_header(options.ascii, fits_float, res.points, confidence));
   res.orient_mode = orient_mode(options, in, tr.input, res);
   OutputChunks chunks(file, options, res.orient_mode,
                       ply && fits_float ? ScalarType::Float32 : ScalarType::Float64,
@@ -628,8 +645,9 @@ void write_output(const TileRun& tr, XyzStream& in, io_detail::AtomicFile& file,
           chunks.add(v, columns, nullptr);
           return;
         }
-        float n[3];
-        std::memcpy(n, results[size_t(tr.plan.route(tr.frame.to_frame(v)))].next(), sizeof n);
+        float n[4];
+        std::memcpy(n, results[size_t(tr.plan.route(tr.frame.to_frame(v)))].next(),
+                    (confidence ? 4 : 3) * sizeof(float));
         failed += std::isfinite(n[0]) ? 0 : 1;
         chunks.add(v, columns, n);
       },

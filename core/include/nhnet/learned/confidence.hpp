@@ -23,6 +23,12 @@ constexpr int kConfidenceFeatures = 8;
 constexpr int kConfidenceNeighbours = 16;
 /// Width of the network's hidden layer.
 constexpr int kConfidenceHidden = 16;
+/// Below this confidence a normal is more likely than not over 30 degrees off: the front ends
+/// count such points in their reports (nhnet-cli's summary "N below confidence 0.5").
+constexpr double kLowConfidence = 0.5;
+
+/// How many of `confidence` are below kLowConfidence (NaN, a failed point, is not counted).
+int64_t count_low_confidence(const Eigen::VectorXd& confidence);
 
 /// Whose fitted weights: the method that made the normals.
 enum class ConfidenceModel { Pca, Mfps, NhNet };

@@ -55,6 +55,9 @@ struct StreamResult {
   /// Cell means the tiles were estimated through, summed over the tiles (a mean near a tile's
   /// border counts in each tile whose halo holds it); 0 when the cloud went through its points.
   int64_t cell_means = 0;
+  /// With EstimateOptions::confidence: points below kLowConfidence (learned/confidence.hpp);
+  /// -1 without it.
+  int64_t low_confidence = -1;
   /// Orientation used (Keep falls back to None when the input has no normals) and its counts
   /// (flipped / unoriented / invalid), summed over the written chunks.
   OrientMode orient_mode = OrientMode::None;
