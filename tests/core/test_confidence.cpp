@@ -84,6 +84,37 @@ TEST(Confidence, RangeAndFailedPoints) {
   EXPECT_TRUE(F.row(4).allFinite());
 }
 
+// The estimate's one-pass score (normal_confidence) is the fit tool's two steps
+// (confidence_from_features of confidence_features) to the last bit, with a neighbour table and
+// with its own search, and with a point without a normal (NaN in both).
+TEST(Confidence, OnePassEqualsFeaturesThenNetwork) {
+  const fixtures::Fixture f = fixtures::cube(5000, 0.01, 4);
+  nhnet::EstimateOptions o;
+  o.method = nhnet::Method::Mfps;
+  o.neighbours = nhnet::kConfidenceNeighbours + 4;
+  nhnet::EstimateResult r = nhnet::estimate_normals(f.points, o);
+  ASSERT_EQ(r.neighbours.rows(), f.points.rows());
+  const nhnet::IndexMatrix* tables[] = {&r.neighbours, nullptr};
+  for (const nhnet::IndexMatrix* table : tables) {
+    for (const bool hole : {false, true}) {
+      nhnet::Normals n = r.normals;
+      if (hole) n.row(7).setConstant(std::numeric_limits<double>::quiet_NaN());
+      const Eigen::VectorXd two = nhnet::confidence_from_features(
+          nhnet::confidence_features(f.points, n, r.curvature, r.noise_ratio, {}, table),
+          nhnet::ConfidenceModel::Mfps);
+      const Eigen::VectorXd one = nhnet::normal_confidence(
+          f.points, n, r.curvature, r.noise_ratio, nhnet::ConfidenceModel::Mfps, {}, table);
+      ASSERT_EQ(one.size(), two.size());
+      for (Eigen::Index i = 0; i < one.size(); ++i)
+        if (std::isnan(two[i]))
+          EXPECT_TRUE(std::isnan(one[i])) << i;
+        else
+          EXPECT_EQ(one[i], two[i]) << i;
+      EXPECT_EQ(std::isnan(one[7]), hole);
+    }
+  }
+}
+
 // The point of it: on a noisy cube (errors near the edges and corners), the points whose PCA
 // normal is more than 30 degrees off get a lower confidence than the others. The AUROC must
 // beat chance clearly (0.75; the surface variation alone is a fair ranker here too, so it is

@@ -691,9 +691,8 @@ void add_confidence(const Points& points, const EstimateOptions& options, Estima
                                 : options.method == Method::Mfps ? ConfidenceModel::Mfps
                                                                  : ConfidenceModel::NhNet;
   const IndexMatrix* table = res.neighbours.rows() == points.rows() ? &res.neighbours : nullptr;
-  res.confidence = confidence_from_features(
-      confidence_features(points, res.normals, res.curvature, res.noise_ratio, options.run, table),
-      model);
+  res.confidence = normal_confidence(points, res.normals, res.curvature, res.noise_ratio, model,
+                                     options.run, table);
 }
 
 namespace {

@@ -46,4 +46,11 @@ Eigen::MatrixXd confidence_features(const Points& points, const Normals& normals
 /// Confidence in [0, 1] per row of `features` (confidence_features); NaN for NaN rows.
 Eigen::VectorXd confidence_from_features(const Eigen::MatrixXd& features, ConfidenceModel model);
 
+/// confidence_from_features(confidence_features(...), model), the same numbers, in one pass
+/// without the N x kConfidenceFeatures matrix: what the estimate computes.
+Eigen::VectorXd normal_confidence(const Points& points, const Normals& normals,
+                                  const Eigen::VectorXd& curvature, double noise_ratio,
+                                  ConfidenceModel model, const RunContext& run = {},
+                                  const IndexMatrix* neighbours = nullptr);
+
 }  // namespace nhnet
