@@ -225,6 +225,31 @@ def noise_table(records: list[dict], methods: list[str], sizes: list[int], level
     return md
 
 
+def sweep_table(records: list[dict], methods: list[str], sizes: list[int], levels: list) -> list[str]:
+    """Issue 56's sweep: at each size and noise level, every method's time as a ratio to PCL
+    k=50 (the runs around it) with its RMS / mean error beside it, and the time per point
+    relative to the level with the lowest (flat: the largest over the smallest within 1.3)."""
+    md = ["", "## Across noise levels: × PCL, RMS / mean error (°)", "",
+          "| points | method | " + " | ".join(f"{v:g} %" for v in levels) + " | slowest / "
+          "fastest per point |", "|---|---|" + "---|" * (len(levels) + 1)]
+    for n in sizes:
+        for m in methods:
+            cells, per = [], []
+            for v in levels:
+                r = next((r for r in records if r["n"] == n and r["method"] == m
+                          and r.get("noise") == v and "error" not in r), None)
+                if r is None:
+                    cells.append("—")
+                    continue
+                ratio = "" if r.get("ratio_to_pcl") is None else f"{r['ratio_to_pcl']:.2f}×, "
+                cells.append(f"{ratio}{fmt(r.get('rms_deg'))} / {fmt(r.get('mean_deg'))}")
+                per.append(r["us_per_point"])
+            if len(per) > 1:
+                md.append(f"| {n} | {LABELS.get(m, m)} | " + " | ".join(cells)
+                          + f" | {max(per) / min(per):.2f} |")
+    return md
+
+
 def report(records: list[dict], meta: dict, methods: list[str]) -> list[str]:
     sizes = sorted({r["n"] for r in records})
     levels = meta.get("noise") or [None]
@@ -241,8 +266,8 @@ def report(records: list[dict], meta: dict, methods: list[str]) -> list[str]:
     if meta.get("skipped"):
         md += [f"- not run: {s}" for s in meta["skipped"]] + [""]
     md += ["| points | method | time s | µs/point | × PCL | points/s/core | peak MB | "
-           "peak B/point | Δ B/point | k / scales | mean ° |",
-           "|---|---|---|---|---|---|---|---|---|---|---|"]
+           "peak B/point | Δ B/point | k / scales | mean ° | RMS ° |",
+           "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for n, level in [(n, v) for n in sizes for v in levels]:
         label = str(n) if level is None else f"{n}, {level:g} %"
         for m in methods:
@@ -250,7 +275,7 @@ def report(records: list[dict], meta: dict, methods: list[str]) -> list[str]:
                       and r.get("noise") == level]:
                 if "error" in r:
                     md.append(f"| {label} | {LABELS.get(m, m)} | error: {r['error'][:80]} |"
-                              + " |" * 8)
+                              + " |" * 9)
                     continue
                 ks = str(r.get("k_used", "")) + (
                     " / " + ",".join(map(str, r["scales_used"])) if r.get("scales_used") else "")
@@ -259,7 +284,7 @@ def report(records: list[dict], meta: dict, methods: list[str]) -> list[str]:
                           f"{fmt(r['points_per_s_per_core'], '.0f')} | {fmt(r['peak_mb'], '.0f')} | "
                           f"{fmt(r['peak_bytes_per_point'], '.0f')} | "
                           f"{fmt(r['delta_bytes_per_point'], '.0f')} | {ks} | "
-                          f"{fmt(r.get('mean_deg'))} |")
+                          f"{fmt(r.get('mean_deg'))} | {fmt(r.get('rms_deg'))} |")
     md += ["", "## Time per point relative to the smallest size (flat = 1.00; bar: within ±25 %)",
            "", "| method | " + " | ".join(str(n) for n in sizes) + " |",
            "|---|" + "---|" * len(sizes)]
@@ -271,6 +296,7 @@ def report(records: list[dict], meta: dict, methods: list[str]) -> list[str]:
             md.append(f"| {series_name(m, level)} | "
                       + " | ".join(fmt(row[n] / base) if n in row else "—" for n in sizes) + " |")
     if len(levels) > 1:
+        md += sweep_table(records, methods, sizes, levels)
         md += noise_table(records, methods, sizes, levels)
     md += ["", "## Seconds per stage (core progress stages)", ""]
     for r in records:

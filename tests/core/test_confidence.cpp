@@ -102,8 +102,8 @@ TEST(Confidence, OnePassEqualsFeaturesThenNetwork) {
       const Eigen::VectorXd two = nhnet::confidence_from_features(
           nhnet::confidence_features(f.points, n, r.curvature, r.noise_ratio, {}, table),
           nhnet::ConfidenceModel::Mfps);
-      const Eigen::VectorXd one = nhnet::normal_confidence(
-          f.points, n, r.curvature, r.noise_ratio, nhnet::ConfidenceModel::Mfps, {}, table);
+      const Eigen::VectorXd one = nhnet::normal_confidence(f.points, n, r.curvature, r.noise_ratio,
+                                                           nhnet::ConfidenceModel::Mfps, {}, table);
       ASSERT_EQ(one.size(), two.size());
       for (Eigen::Index i = 0; i < one.size(); ++i)
         if (std::isnan(two[i]))

@@ -128,3 +128,10 @@ def test_fixed_noise_levels_are_clouds_of_their_own(tmp_path):
         "fandisk_2000_noise0.6.gt.xyzn", "fandisk_2000_noise0.gt.xyzn"]
     table = (out / "table.md").read_text()
     assert "| method | points | 0 % | 0.6 % |" in table and "| 2000, 0.6 % | nhnet pca" in table
+    # issue 56's sweep: × PCL with RMS / mean beside it at every level, and the spread per point
+    row = next(ln for ln in table.splitlines() if ln.startswith("| 2000 | nhnet pca (auto k) |"))
+    cells = [c.strip() for c in row.strip("|").split("|")]
+    assert cells[2] == f"{clean['ratio_to_pcl']:.2f}×, {clean['rms_deg']:.2f} / {clean['mean_deg']:.2f}"
+    spread = max(clean["us_per_point"], noisy["us_per_point"]) / min(
+        clean["us_per_point"], noisy["us_per_point"])
+    assert cells[4] == f"{spread:.2f}"
