@@ -71,6 +71,14 @@ void add_method_options(CLI::App* sub, EstimateArgs& a) {
                   "noisy cloud and moved on a clean one (auto) " +
                       default_note(a.refine))
       ->type_name("auto|all|moved");
+  sub->add_option("--network-stride", a.network_stride,
+                  "NH-Net where it runs on every point: describe every N-th point (along a "
+                  "Morton curve), the feature points and those whose MFPS normal departs from "
+                  "their strided neighbour's, and give the others their nearest described "
+                  "neighbour's network normal; 1 = every point (slower on dense noisy clouds); "
+                  "0 = automatic, from the neighbourhood size " +
+                      default_note(std::to_string(nhnet::EstimateOptions{}.model.network_stride)))
+      ->type_name("N");
   sub->add_option("-k,--k", a.k,
                   "PCA neighbourhood size, >= 3 (default: chosen from the noise level)")
       ->type_name("K");
@@ -173,10 +181,11 @@ Setup prepare(const EstimateArgs& a) {
   nhnet::EstimateOptions& opt = st.opt;
   // The default is NH-Net; --model or --device alone ask for it too (and fail loudly if it
   // cannot run instead of falling back).
-  const bool nhnet_asked =
-      !a.model.empty() || a.device != "auto" || a.precision != EstimateArgs{}.precision ||
-      a.candidate_mix != EstimateArgs{}.candidate_mix ||
-      a.learned_fit != EstimateArgs{}.learned_fit || a.refine != EstimateArgs{}.refine;
+  const bool nhnet_asked = !a.model.empty() || a.device != "auto" ||
+                           a.precision != EstimateArgs{}.precision ||
+                           a.candidate_mix != EstimateArgs{}.candidate_mix ||
+                           a.learned_fit != EstimateArgs{}.learned_fit ||
+                           a.refine != EstimateArgs{}.refine || !a.network_stride.empty();
   const std::string method = !a.method.empty() ? a.method
                              : nhnet_asked
                                  ? "nhnet"
@@ -205,12 +214,14 @@ Setup prepare(const EstimateArgs& a) {
     throw nhnet::InvalidOptions("--learned-fit must be on or off, got '" + a.learned_fit + "'");
   opt.model.learned_fit = a.learned_fit == "on";
   opt.model.refine = nhnet::refine_from_string(a.refine);
+  if (!a.network_stride.empty())
+    opt.model.network_stride = parse_int("--network-stride", a.network_stride, 0);
   opt.cell_means.noise_ratio = parse_cell_means(a.cell_means);
   opt.confidence = a.confidence;
   if (opt.method != nhnet::Method::NhNet && nhnet_asked)
     throw nhnet::InvalidOptions(
-        "--model, --device, --precision, --candidate-mix, --learned-fit and --refine only "
-        "apply to --method nhnet");
+        "--model, --device, --precision, --candidate-mix, --learned-fit, --refine and "
+        "--network-stride only apply to --method nhnet");
   st.orient.mode = nhnet::kDefaultOrientMode;
   if (!a.orient.empty()) st.orient = parse_orient(a.orient);
   st.orient.run.threads = opt.run.threads;

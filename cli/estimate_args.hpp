@@ -39,6 +39,7 @@ struct EstimateArgs {
   /// NH-Net's learned weighted jet fit after the mix: on | off
   std::string learned_fit = nhnet::EstimateOptions{}.model.learned_fit ? "on" : "off";
   std::string refine = nhnet::to_string(nhnet::EstimateOptions{}.model.refine);
+  std::string network_stride;  ///< empty: the core's (automatic)
   /// Dense clouds through cell means (CellMeanOptions): auto | off | the noise ratio from which
   std::string cell_means = nhnet::EstimateOptions{}.cell_means.noise_ratio > 0 ? "auto" : "off";
   bool stream = false;      ///< --stream: out of core, XYZ input

@@ -192,12 +192,13 @@ namespace {
 
 /// The default method's normals of `points` with `refine`, and how many "nhnet" progress calls
 /// it made: every block of 64 points the network runs ends with one (refine.cpp).
-std::pair<EstimateResult, int> refined(const Points& points, Refine refine) {
+std::pair<EstimateResult, int> refined(const Points& points, Refine refine, int stride = 0) {
   EstimateOptions o;
   o.method = Method::NhNet;
   o.model.device = "cpu";
   o.model.batch = 64;
   o.model.refine = refine;
+  o.model.network_stride = stride;
   int calls = 0;
   o.run.progress = [&](double, const std::string& stage) {
     calls += stage == "nhnet";
@@ -239,6 +240,37 @@ TEST(CandidateMix, AutoRunsTheNetworkEverywhereOnlyOnANoisyCloud) {
   EXPECT_TRUE(clean_auto.normals == clean_moved.normals);
   EXPECT_EQ(clean_calls, moved_calls);
   EXPECT_LT(clean_calls, refined(clean, Refine::All).second);
+}
+
+// A noisy sphere dense enough for neighbourhoods of many points (k_used >= 32): the automatic
+// network stride describes a fraction of the points and hands the rest their nearest described
+// neighbour's network normal. A smooth surface's network normals agree over a few spacings, so
+// the RMS stays within 2 % of the network on every point (deterministic runs: 2 % is far outside
+// run-to-run change), for under 60 % of its blocks; stride 1 is every point.
+TEST(CandidateMix, NetworkStrideDescribesFewerPointsOfADenseNoisyCloud) {
+  if (!nhnet_available()) GTEST_FAIL() << "this build has no libtorch: the default method needs it";
+  const fixtures::Fixture f = fixtures::sphere(20000, 8);
+  const Points noisy = with_noise(f.points, 0.021, 8);
+  const auto [every, every_calls] = refined(noisy, Refine::All, 1);
+  const auto [strided, strided_calls] = refined(noisy, Refine::All, 0);
+  ASSERT_GE(every.k_used, 32) << "the fixture must be dense for the stride to apply";
+  EXPECT_LT(strided_calls, 0.6 * every_calls) << strided_calls << " of " << every_calls;
+  auto rms = [&](const Normals& n) {
+    double sum = 0;
+    for (Eigen::Index i = 0; i < n.rows(); ++i) {
+      const double a = line_angle(n.row(i).transpose(), f.normals.row(i).transpose());
+      sum += a * a;
+    }
+    return std::sqrt(sum / double(n.rows())) * 180 / M_PI;
+  };
+  const double r_every = rms(every.normals), r_strided = rms(strided.normals);
+  ::testing::Test::RecordProperty("rms_every_point", std::to_string(r_every));
+  ::testing::Test::RecordProperty("rms_strided", std::to_string(r_strided));
+  EXPECT_LT(r_strided, 1.02 * r_every) << "every point " << r_every << ", strided " << r_strided;
+  EstimateOptions bad;
+  bad.method = Method::NhNet;
+  bad.model.network_stride = -1;
+  EXPECT_THROW(estimate_normals(noisy, bad), InvalidOptions);
 }
 
 TEST(CandidateMix, OneNeighbourSearchGivesTheNormalsOfTwo) {

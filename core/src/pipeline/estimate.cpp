@@ -267,6 +267,10 @@ void check_options(const EstimateOptions& options) {
     throw InvalidOptions("cell means need a noise ratio >= 0 (0 = off) and an edge > 0");
   if (options.method == Method::NhNet && options.model.batch < 1)
     throw InvalidOptions("nhnet batch must be >= 1");
+  if (options.model.network_stride < 0)
+    throw InvalidOptions("nhnet network stride must be >= 0 (0 = automatic, 1 = every point)");
+  if (!(options.model.network_gate_deg >= 0 && options.model.network_gate_deg <= 90))
+    throw InvalidOptions("nhnet network gate must be between 0 and 90 degrees");
 }
 
 }  // namespace detail

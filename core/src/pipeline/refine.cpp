@@ -12,6 +12,7 @@
 #include "util/shared_setting.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 
 #if defined(__GLIBC__)
@@ -100,6 +101,64 @@ std::vector<uint8_t> moved_by_mfps(const EstimateResult& geometry,
   return moved;
 }
 
+/// The stride of ModelOptions::network_stride for a cloud whose neighbourhoods have k points.
+int network_stride(const ModelOptions& model, int k) {
+  return model.network_stride > 0 ? model.network_stride : std::clamp(k / 16, 1, 8);
+}
+
+/// The nearest row of `side.knn` (after self) that `described` marks, or -1.
+int32_t nearest_described(const detail::GeometrySide& side, const std::vector<uint8_t>& described,
+                          Eigen::Index i) {
+  for (Eigen::Index j = 1; j < side.knn.cols(); ++j)
+    if (described[size_t(side.knn(i, j))]) return side.knn(i, j);
+  return -1;
+}
+
+/// The points the network describes on a cloud where it runs everywhere but its stride
+/// (ModelOptions::network_stride) is over 1: the strided rows (the rows run along a Morton
+/// curve), the moved ones, and those whose MFPS normal is over the gate off that of their
+/// nearest strided row (or that have none among their kMixNeighbours). Empty: every point.
+std::vector<uint8_t> strided_points(const EstimateResult& geometry,
+                                    const detail::GeometrySide& side, const ModelOptions& model,
+                                    int threads) {
+  const int stride = network_stride(model, geometry.k_used);
+  if (stride <= 1 || side.knn.rows() != geometry.normals.rows()) return {};
+  std::vector<uint8_t> strided(geometry.valid.size(), 0);
+  for (size_t i = 0; i < strided.size(); i += size_t(stride)) strided[i] = geometry.valid[i];
+  std::vector<uint8_t> described = moved_by_mfps(geometry, side);
+  const double gate = std::cos(model.network_gate_deg * M_PI / 180);
+  detail::parallel_for(Eigen::Index(strided.size()), threads, nullptr, [&](int64_t i) {
+    if (!geometry.valid[size_t(i)] || strided[size_t(i)]) {
+      described[size_t(i)] |= strided[size_t(i)];
+      return;
+    }
+    const int32_t c = nearest_described(side, strided, i);
+    if (c < 0 || !(std::abs(side.pca.row(i).dot(side.pca.row(c))) >= gate))
+      described[size_t(i)] = 1;
+  });
+  return described;
+}
+
+/// The network normal of every valid point the network did not describe: the mean of its
+/// described neighbours' among its kMixNeighbours, each turned to the nearest one's side (around
+/// the point the surface's bend cancels out, where the nearest one's alone is tilted by it); its
+/// MFPS normal stays when none is described.
+void share_network_normals(const detail::GeometrySide& side, const std::vector<uint8_t>& described,
+                           int threads, EstimateResult& res) {
+  detail::parallel_for(res.normals.rows(), threads, nullptr, [&](int64_t i) {
+    if (!res.valid[size_t(i)] || described[size_t(i)]) return;
+    Eigen::RowVector3d sum = Eigen::RowVector3d::Zero(), first = sum;
+    for (Eigen::Index j = 1; j < side.knn.cols(); ++j) {
+      const int32_t c = side.knn(i, j);
+      if (!described[size_t(c)]) continue;
+      const Eigen::RowVector3d n = res.normals.row(c);
+      if (first.isZero()) first = n;
+      sum += n.dot(first) < 0 ? -n : n;
+    }
+    if (sum.allFinite() && sum.norm() > 0) res.normals.row(i) = sum.normalized();
+  });
+}
+
 /// The candidate mix (candidate_mix.hpp) of every point with a normal: network normals in `res`
 /// (MFPS's where the network did not run), MFPS normals in `mfps`, the rest in `side`.
 void mix_stage(const Normals& mfps, const detail::GeometrySide& side, bool everywhere,
@@ -165,11 +224,13 @@ EstimateResult estimate_nhnet_rows(const Points& points, const EstimateOptions& 
   const Normals mfps = options.model.candidate_mix ? geometry.normals : Normals();
   const bool only_moved =
       options.model.candidate_mix && !network_everywhere(options.model, geometry.noise_ratio);
-  const std::vector<uint8_t> moved =
-      only_moved ? moved_by_mfps(geometry, side) : std::vector<uint8_t>();
+  const std::vector<uint8_t> described =
+      !options.model.candidate_mix ? std::vector<uint8_t>()
+      : only_moved                 ? moved_by_mfps(geometry, side)
+                                   : strided_points(geometry, side, options.model, eo.run.threads);
   DescriptorInput in =
       descriptor_input(points, std::move(geometry), table.descriptor, narrow(eo.run, 0.9, 1),
-                       moved.empty() ? nullptr : &moved, &table);
+                       described.empty() ? nullptr : &described, &table);
   EstimateResult res = std::move(in.geometry);
   res.device_used = loaded->device();
   res.precision_used = loaded->precision();
@@ -188,6 +249,8 @@ EstimateResult estimate_nhnet_rows(const Points& points, const EstimateOptions& 
     kept += refine_block(in, b, len, *loaded, options, run, res);
     if (cb && !cb(0.7 + 0.3 * double(b + len) / double(m), "nhnet")) throw Cancelled();
   }
+  if (!only_moved && !described.empty())
+    share_network_normals(side, described, options.run.threads, res);
   if (options.model.candidate_mix) {
     // A short stage after the last block: it reports at 100 % and can still be cancelled.
     run.progress = cb ? ProgressCallback([cb](double, const std::string& s) { return cb(1, s); })
