@@ -116,8 +116,9 @@ int32_t nearest_described(const detail::GeometrySide& side, const std::vector<ui
 
 /// The points the network describes on a cloud where it runs everywhere but its stride
 /// (ModelOptions::network_stride) is over 1: the strided rows (the rows run along a Morton
-/// curve), the moved ones, and those whose MFPS normal is over the gate off that of their
-/// nearest strided row (or that have none among their kMixNeighbours). Empty: every point.
+/// curve), the moved ones, and those whose PCA normal (over k_used neighbours: smooth, it
+/// follows the surface's bend) is over the gate off that of their nearest strided row, or that
+/// have none among their kMixNeighbours. Empty: every point.
 std::vector<uint8_t> strided_points(const EstimateResult& geometry,
                                     const detail::GeometrySide& side, const ModelOptions& model,
                                     int threads) {

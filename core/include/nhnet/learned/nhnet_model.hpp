@@ -92,13 +92,13 @@ struct ModelOptions {
   double auto_noise_ratio = 0.02;
   /// With the candidate mix and the network on every point (above): on a cloud whose noise
   /// makes neighbourhoods of many points, the network describes every network_stride-th point
-  /// along the cloud's Morton curve, the points MFPS moved, and every point whose MFPS normal is
-  /// more than network_gate_deg off that of its nearest strided point; the others take their
-  /// nearest described neighbour's network normal (a smooth patch's network normals agree over a
-  /// few spacings; the gate keeps edges, thin parts and noisy sparse clouds described). 0 =
+  /// along the cloud's Morton curve, the points MFPS moved, and every point whose PCA normal is
+  /// more than network_gate_deg off that of its nearest strided point; the others take the mean
+  /// of their described neighbours' network normals (a smooth patch's network normals agree over
+  /// a few spacings; the gate keeps bends, thin parts and sparse clouds described). 0 =
   /// automatic: k_used / 16, from 1 to 8 (1M fandisk points at 0.125 % noise: k 147, stride 8,
-  /// 26 % of the points described, RMS +0.01 degree; a 100k cloud at 1.2 % keeps ~90 %; issue 56);
-  /// 1 = every point.
+  /// 26 % less time, RMS 8.352 -> 8.343 degrees; 100k clouds: within 0.05 degree; issue 56,
+  /// docs/design/decisions.md#network-stride-on-dense-noisy-clouds-issue-56); 1 = every point.
   int network_stride = 0;
   /// See network_stride.
   double network_gate_deg = 2;
