@@ -73,9 +73,9 @@ void add_method_options(CLI::App* sub, EstimateArgs& a) {
       ->type_name("auto|all|moved");
   sub->add_option("--network-stride", a.network_stride,
                   "NH-Net where it runs on every point: describe every N-th point (along a "
-                  "Morton curve), the feature points and those whose MFPS normal departs from "
-                  "their strided neighbour's, and give the others their nearest described "
-                  "neighbour's network normal; 1 = every point (slower on dense noisy clouds); "
+                  "Morton curve), the feature points and those whose PCA normal departs from "
+                  "their strided neighbour's, and give the others the mean of their described "
+                  "neighbours' network normals; 1 = every point (slower on dense noisy clouds); "
                   "0 = automatic, from the neighbourhood size " +
                       default_note(std::to_string(nhnet::EstimateOptions{}.model.network_stride)))
       ->type_name("N");

@@ -110,20 +110,21 @@ double network(const Row& f, const ConfidenceWeights& w) {
   return 1 / (1 + std::exp(out));  // the network scores the chance of an error over 30 degrees
 }
 
-/// The points with a normal, copied in input order or, `along_curve`, in Morton order
-/// (util/spatial_order.hpp) so that a point's neighbours lie in nearby memory (a search among a
-/// shuffled cloud's points 13 % faster at 1M points; through a table of input rows the order did
-/// not matter, and its sort is a tenth of the score's time). Row j of pts / nrm is input row
-/// rows[j]; pos[input row] = j (-1 without a normal).
+/// The confidence of a row of features: the network's, NaN for a NaN row.
+double score(const Row& f, const ConfidenceWeights& w) {
+  return f.allFinite() ? network(f, w) : std::numeric_limits<double>::quiet_NaN();
+}
+
+/// The points with a normal copied in Morton order (util/spatial_order.hpp), for a search among
+/// them: their neighbours then lie in nearby memory (13 % faster at 1M shuffled points). Row j of
+/// pts / nrm is input row rows[j].
 struct Ordered {
   std::vector<int64_t> rows;
-  std::vector<int32_t> pos;
   Points pts;
   Normals nrm;
 };
 
-Ordered ordered(const Points& points, const Normals& normals, bool along_curve) {
-  Ordered o;
+Ordered ordered(const Points& points, const Normals& normals) {
   const Eigen::Index n = points.rows();
   Points with(n, 3);
   std::vector<int64_t> kept;
@@ -133,28 +134,47 @@ Ordered ordered(const Points& points, const Normals& normals, bool along_curve) 
       kept.push_back(i);
     }
   with.conservativeResize(Eigen::Index(kept.size()), 3);
-  std::vector<int64_t> along(kept.size());
-  if (along_curve)
-    along = detail::spatial_order(with);
-  else
-    for (size_t j = 0; j < along.size(); ++j) along[j] = int64_t(j);
+  const std::vector<int64_t> along = detail::spatial_order(with);
+  Ordered o;
   o.rows.resize(kept.size());
-  o.pos.assign(size_t(n), -1);
   o.pts.resize(Eigen::Index(kept.size()), 3);
   o.nrm.resize(Eigen::Index(kept.size()), 3);
   for (size_t j = 0; j < kept.size(); ++j) {
-    const int64_t row = kept[size_t(along[j])];
-    o.rows[j] = row;
-    o.pos[size_t(row)] = int32_t(j);
-    o.pts.row(Eigen::Index(j)) = points.row(row);
-    o.nrm.row(Eigen::Index(j)) = normals.row(row);
+    o.rows[j] = kept[size_t(along[j])];
+    o.pts.row(Eigen::Index(j)) = points.row(o.rows[j]);
+    o.nrm.row(Eigen::Index(j)) = normals.row(o.rows[j]);
   }
   return o;
 }
 
-/// Calls sink(input row, features) for every point with a normal. Its neighbours: the first
-/// kConfidenceNeighbours entries of its row of `neighbours` (input rows, self first or an exact
-/// copy of it) when that table covers every row, else a batched search among those points.
+/// Calls sink(rows[j], features) for every j < pts.rows(): its neighbours are the first
+/// kConfidenceNeighbours entries of knn row j (rows of pts; self first, or moved there when an
+/// exact copy came first). `rows` empty: row j is input row j.
+template <class Sink>
+void each_features(const Points& pts, const Normals& nrm, const IndexMatrix& knn,
+                   const std::vector<int64_t>& rows, const Eigen::VectorXd& curvature,
+                   double noise_ratio, Eigen::Index n, const RunContext& run, Sink&& sink) {
+  const int k = int(std::min<Eigen::Index>(knn.cols(), kConfidenceNeighbours));
+  const double log_noise = std::log(std::max(noise_ratio, 1e-4));
+  detail::Progress progress(run.progress);
+  if (run.progress) progress.stage("confidence", 0, 1);
+  detail::parallel_for(pts.rows(), run.threads, run.progress ? &progress : nullptr, [&](int64_t j) {
+    const int64_t row = rows.empty() ? j : rows[size_t(j)];
+    std::array<int32_t, kConfidenceNeighbours> idx;
+    std::copy_n(knn.row(j).data(), k, idx.begin());
+    int32_t* self = std::find(idx.data(), idx.data() + k, int32_t(j));
+    if (self != idx.data() + k)  // self first even among exact copies
+      std::iter_swap(idx.data(), self);
+    else
+      idx[0] = int32_t(j);
+    const double v = curvature.size() == n ? curvature[row] : 0;
+    sink(row, point_features(pts, nrm, idx.data(), k, std::isfinite(v) ? v : 0, log_noise));
+  });
+}
+
+/// Calls sink(input row, features) for every point with a normal. Its neighbours: its row of
+/// `neighbours` (input rows) when that table covers every row and every row has a normal, else
+/// a batched search among those points.
 template <class Sink>
 void features_of(const Points& points, const Normals& normals, const Eigen::VectorXd& curvature,
                  double noise_ratio, const RunContext& run, const IndexMatrix* neighbours,
@@ -162,33 +182,17 @@ void features_of(const Points& points, const Normals& normals, const Eigen::Vect
   const Eigen::Index n = points.rows();
   Eigen::Index with = 0;
   for (Eigen::Index i = 0; i < n; ++i) with += normals.row(i).allFinite();
-  const bool table = neighbours && neighbours->rows() == n && with == n &&
-                     neighbours->cols() >= std::min<Eigen::Index>(kConfidenceNeighbours, n);
-  const Ordered o = ordered(points, normals, !table);
-  const Eigen::Index m = Eigen::Index(o.rows.size());
-  if (m < 2) return;
-  IndexMatrix knn;  // among the ordered points
-  if (!table)
-    Neighbors(o.pts).knn_all(kConfidenceNeighbours, knn, nullptr, detail::narrow(run, 0, 0.6));
-  const IndexMatrix& from = table ? *neighbours : knn;
-  const int k = int(std::min<Eigen::Index>(from.cols(), kConfidenceNeighbours));
-  const double log_noise = std::log(std::max(noise_ratio, 1e-4));
-  const RunContext rest = table ? run : detail::narrow(run, 0.6, 1);
-  detail::Progress progress(rest.progress);
-  if (rest.progress) progress.stage("confidence", 0, 1);
-  detail::parallel_for(m, rest.threads, rest.progress ? &progress : nullptr, [&](int64_t j) {
-    const int64_t row = o.rows[size_t(j)];
-    const int32_t* at = from.row(table ? row : j).data();
-    std::array<int32_t, kConfidenceNeighbours> idx;
-    for (int t = 0; t < k; ++t) idx[size_t(t)] = table ? o.pos[size_t(at[t])] : at[t];
-    int32_t* self = std::find(idx.data(), idx.data() + k, int32_t(j));
-    if (self != idx.data() + k)  // self first even among exact copies
-      std::iter_swap(idx.data(), self);
-    else
-      idx[0] = int32_t(j);
-    const double v = curvature.size() == n ? curvature[row] : 0;
-    sink(row, point_features(o.pts, o.nrm, idx.data(), k, std::isfinite(v) ? v : 0, log_noise));
-  });
+  if (with < 2) return;
+  if (neighbours && neighbours->rows() == n && with == n &&
+      neighbours->cols() >= std::min<Eigen::Index>(kConfidenceNeighbours, n)) {
+    each_features(points, normals, *neighbours, {}, curvature, noise_ratio, n, run, sink);
+    return;
+  }
+  const Ordered o = ordered(points, normals);
+  IndexMatrix knn;
+  Neighbors(o.pts).knn_all(kConfidenceNeighbours, knn, nullptr, detail::narrow(run, 0, 0.6));
+  each_features(o.pts, o.nrm, knn, o.rows, curvature, noise_ratio, n, detail::narrow(run, 0.6, 1),
+                sink);
 }
 
 }  // namespace
@@ -211,19 +215,15 @@ Eigen::VectorXd normal_confidence(const Points& points, const Normals& normals,
   Eigen::VectorXd out =
       Eigen::VectorXd::Constant(points.rows(), std::numeric_limits<double>::quiet_NaN());
   features_of(points, normals, curvature, noise_ratio, run, neighbours,
-              [&](Eigen::Index row, const Row& f) {
-                out[row] = f.allFinite() ? network(f, w) : std::numeric_limits<double>::quiet_NaN();
-              });
+              [&](Eigen::Index row, const Row& f) { out[row] = score(f, w); });
   return out;
 }
 
 Eigen::VectorXd confidence_from_features(const Eigen::MatrixXd& features, ConfidenceModel model) {
   const ConfidenceWeights& w = weights_of(model);
   Eigen::VectorXd out(features.rows());
-  detail::parallel_for(features.rows(), 0, nullptr, [&](int64_t i) {
-    const Row f = features.row(i);
-    out[i] = f.allFinite() ? network(f, w) : std::numeric_limits<double>::quiet_NaN();
-  });
+  detail::parallel_for(features.rows(), 0, nullptr,
+                       [&](int64_t i) { out[i] = score(features.row(i), w); });
   return out;
 }
 

@@ -446,11 +446,12 @@ int64_t write_tile_result(const fs::path& file, size_t own, const EstimateResult
     for (int k = 0; k < 3; ++k) n[k] = est.valid[r] ? float(est.normals(Eigen::Index(r), k)) : NAN;
     n[3] = confidence && est.valid[r] ? float(est.confidence[Eigen::Index(r)]) : NAN;
     out.add(n, (confidence ? 4 : 3) * sizeof(float));
-    if (confidence) res.low_confidence += n[3] < float(kLowConfidence);
     degenerate += est.valid[r] ? 0 : 1;
     if (!est.candidate.empty()) res.candidates += est.candidate[r];
   }
   out.flush();
+  if (confidence)
+    res.low_confidence += count_low_confidence(est.confidence.head(Eigen::Index(own)));
   return degenerate;
 }
 
